@@ -1,0 +1,11 @@
+"""Benchmarks: every speed and accuracy figure of the project, printed as one JSON object.
+
+Adding a benchmark: a module here with ``run(quick: bool) -> dict`` and one line in
+:data:`BENCHMARKS`.  ``quick`` shortens runs (used by the shape test); figures in notes
+and issues come from full runs (``usv bench``).
+"""
+
+BENCHMARKS: dict[str, str] = {
+    "mavlink_codec": "benchmarks.mavlink_codec",
+}
+"""Benchmark name -> module with ``run(quick: bool) -> dict``."""

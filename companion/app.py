@@ -1,0 +1,114 @@
+"""The application skeleton: services started in order in one TaskGroup, stopped in reverse.
+
+A :class:`Service` is anything with ``start()`` (bind sockets, open ports: fast, ordered),
+``run()`` (the long-running loop) and ``stop()`` (release resources).  :class:`Application`
+starts services one after another, runs all ``run()`` coroutines in one
+:class:`asyncio.TaskGroup`, and on SIGINT/SIGTERM (or :meth:`Application.request_stop`)
+cancels them in reverse start order, calls ``stop()`` in reverse order, and checks that no
+task is left behind.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import signal
+from dataclasses import dataclass, field
+from typing import Protocol
+
+from companion.bus import Bus
+from companion.clock import Clock
+from companion.config import Config
+from companion.params import ParamStore
+
+log = logging.getLogger(__name__)
+
+
+class Service(Protocol):
+    """A part of the application with an ordered life cycle."""
+
+    name: str
+
+    async def start(self) -> None: ...
+
+    async def run(self) -> None: ...
+
+    async def stop(self) -> None: ...
+
+
+class BaseService:
+    """Convenience base: no-op start/stop, ``run`` waits forever."""
+
+    name = "service"
+
+    async def start(self) -> None:
+        return None
+
+    async def run(self) -> None:
+        await asyncio.Event().wait()
+
+    async def stop(self) -> None:
+        return None
+
+
+@dataclass
+class Context:
+    """What every service gets: configuration, clock, bus and parameters."""
+
+    config: Config
+    clock: Clock
+    bus: Bus
+    params: ParamStore
+    extras: dict[str, object] = field(default_factory=dict)
+
+
+class Application:
+    """Ordered start-up and clean shutdown of a list of services."""
+
+    def __init__(self, services: list[Service] | None = None) -> None:
+        self.services: list[Service] = list(services or [])
+        self._stop = asyncio.Event()
+        self.started: list[str] = []
+        self.stopped: list[str] = []
+
+    def add(self, service: Service) -> None:
+        self.services.append(service)
+
+    def request_stop(self) -> None:
+        """Ask for a clean shutdown (what SIGINT/SIGTERM do)."""
+        self._stop.set()
+
+    async def run(self, *, install_signal_handlers: bool = True) -> None:
+        loop = asyncio.get_running_loop()
+        installed: list[signal.Signals] = []
+        if install_signal_handlers:
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                with contextlib.suppress(NotImplementedError, RuntimeError):
+                    loop.add_signal_handler(sig, self.request_stop)
+                    installed.append(sig)
+        started: list[Service] = []
+        tasks: list[asyncio.Task[None]] = []
+        try:
+            async with asyncio.TaskGroup() as tg:
+                for service in self.services:
+                    await service.start()
+                    started.append(service)
+                    self.started.append(service.name)
+                    log.debug("started %s", service.name)
+                    tasks.append(tg.create_task(service.run(), name=service.name))
+                stop_waiter = tg.create_task(self._stop.wait(), name="stop-request")
+                await stop_waiter
+                for task in reversed(tasks):
+                    task.cancel()
+                    with contextlib.suppress(asyncio.CancelledError):
+                        await task
+        finally:
+            for service in reversed(started):
+                try:
+                    await service.stop()
+                except Exception:  # a failing stop must not prevent the others
+                    log.exception("error while stopping %s", service.name)
+                self.stopped.append(service.name)
+            for sig in installed:
+                loop.remove_signal_handler(sig)

@@ -1,0 +1,1 @@
+"""Subcommands of the ``usv`` command line (see :mod:`companion.cli`)."""

@@ -1,0 +1,29 @@
+"""``usv companion``: the companion alone, for a real boat, configured from a TOML file."""
+
+from __future__ import annotations
+
+import argparse
+
+from companion.app import Application
+from companion.clock import WallClock
+from companion.commands.common import add_config_argument, config_from_args, run_async
+from companion.config import Config
+from companion.runtime import ReadyBanner, build_companion_services, build_context
+
+HELP = "run the companion alone against real hardware (GPS-INS and servo serial ports)"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    add_config_argument(parser)
+
+
+async def run_companion(config: Config) -> None:
+    clock = WallClock()
+    ctx = build_context(config, clock)
+    services = build_companion_services(ctx)
+    services.append(ReadyBanner(ctx, f"usv companion ({config.source})"))
+    await Application(services).run()
+
+
+def run(args: argparse.Namespace) -> int:
+    return run_async(run_companion(config_from_args(args)))

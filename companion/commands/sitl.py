@@ -1,0 +1,39 @@
+"""``usv sitl``: the simulated boat and the companion in one process."""
+
+from __future__ import annotations
+
+import argparse
+
+from companion.app import Application
+from companion.clock import SimClock
+from companion.commands.common import add_config_argument, add_sim_arguments, config_from_args, run_async
+from companion.config import Config
+from companion.runtime import ReadyBanner, build_companion_services, build_context
+
+HELP = "run the simulated boat together with the companion (software in the loop)"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    add_config_argument(parser)
+    add_sim_arguments(parser)
+    parser.add_argument("--duration", type=float, default=None,
+                        help="stop after this many seconds of simulated time")
+
+
+async def run_sitl(config: Config, duration_s: float | None = None) -> None:
+    from sim_bridge.runtime import build_sim_services
+
+    clock = SimClock()
+    ctx = build_context(config, clock)
+    app = Application(build_sim_services(ctx, clock) + build_companion_services(ctx))
+    app.add(ReadyBanner(ctx, "usv sitl: simulated boat + companion"))
+    if duration_s is not None:
+        from sim_bridge.runtime import StopAfter
+
+        app.add(StopAfter(clock, duration_s, app.request_stop))
+    await app.run()
+
+
+def run(args: argparse.Namespace) -> int:
+    config = config_from_args(args)
+    return run_async(run_sitl(config, args.duration))

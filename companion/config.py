@@ -1,0 +1,238 @@
+"""Configuration from a TOML file, validated against one schema of settings.
+
+Defaults work for SITL, so ``usv sitl`` needs no file.  A bad key or value raises
+:class:`ConfigError` whose message names the key and the accepted range; the command
+line turns it into a one-line error and a non-zero exit, never a traceback.
+
+The ``[params]`` table sets initial values of MAVLink parameters (validated against
+:mod:`companion.param_table`); every other table is described by :data:`SETTINGS`.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from companion.params import ParamDef, ParamError
+
+
+class ConfigError(ValueError):
+    """An invalid configuration file, key or value; the message names the key."""
+
+
+Check = Callable[[Any], str | None]
+"""Extra check on a value: returns an error text, or ``None`` when the value is fine."""
+
+
+@dataclass(frozen=True, slots=True)
+class Setting:
+    """One configuration key: ``section.name``, type, default, accepted range, description."""
+
+    key: str
+    default: Any
+    description: str
+    kind: type = str
+    min: float | None = None
+    max: float | None = None
+    choices: tuple[str, ...] = ()
+    item_check: Check | None = None
+    accepted: str = ""
+
+    def accepted_text(self) -> str:
+        if self.accepted:
+            return self.accepted
+        if self.choices:
+            return "one of " + ", ".join(repr(c) for c in self.choices)
+        if self.min is not None and self.max is not None:
+            return f"{self.kind.__name__} in [{self.min:g}, {self.max:g}]"
+        return {list: "a list of strings", bool: "true or false"}.get(self.kind, self.kind.__name__)
+
+    def validate(self, value: Any) -> Any:
+        bad = ConfigError(f"{self.key}: invalid value {value!r}; accepted: {self.accepted_text()}")
+        if self.kind is bool:
+            if not isinstance(value, bool):
+                raise bad
+            return value
+        if self.kind in (int, float):
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise bad
+            if self.kind is int and not float(value).is_integer():
+                raise bad
+            if not math.isfinite(float(value)):
+                raise bad
+            if (self.min is not None and value < self.min) or (self.max is not None and value > self.max):
+                raise bad
+            return self.kind(value)
+        if self.kind is list:
+            if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+                raise bad
+            for item in value:
+                problem = self.item_check(item) if self.item_check else None
+                if problem:
+                    raise ConfigError(f"{self.key}: invalid entry {item!r} ({problem}); "
+                                      f"accepted: {self.accepted_text()}")
+            return list(value)
+        if not isinstance(value, str):
+            raise bad
+        if self.choices and value not in self.choices:
+            raise bad
+        if self.item_check and (problem := self.item_check(value)):
+            raise ConfigError(f"{self.key}: invalid value {value!r} ({problem}); "
+                              f"accepted: {self.accepted_text()}")
+        return value
+
+
+def check_host_port(text: str) -> str | None:
+    """``host:port`` with a port in 1..65535."""
+    host, sep, port = text.rpartition(":")
+    if not sep or not host:
+        return "expected host:port"
+    if not port.isdigit() or not 1 <= int(port) <= 65535:
+        return "port must be 1..65535"
+    return None
+
+
+def check_serial(text: str) -> str | None:
+    """``device[:baud]``, e.g. ``/dev/ttyUSB0:57600``."""
+    dev, sep, baud = text.partition(":")
+    if not dev:
+        return "expected device[:baud]"
+    if sep and (not baud.isdigit() or int(baud) <= 0):
+        return "baud must be a positive integer"
+    return None
+
+
+def default_state_dir() -> str:
+    base = os.environ.get("XDG_STATE_HOME") or str(Path.home() / ".local" / "state")
+    return str(Path(base) / "usv")
+
+
+SETTINGS: tuple[Setting, ...] = (
+    Setting("vehicle.profile", "ardurover",
+            "MAVLink identity: 'ardurover' (ArduPilot autopilot id and Rover mode numbers, understood "
+            "by QGroundControl and MAVSDK today) or 'generic' (MAVLink standard modes only).",
+            choices=("ardurover", "generic")),
+    Setting("vehicle.state_dir", "",
+            "Directory for parameters, missions, logs and the sample log "
+            "(empty: $XDG_STATE_HOME/usv or ~/.local/state/usv).",
+            accepted="a directory path"),
+    Setting("links.udp_targets", ["127.0.0.1:14550", "127.0.0.1:14540"],
+            "UDP endpoints the vehicle sends to (QGroundControl listens on 14550, MAVSDK scripts "
+            "on 14540).", kind=list, item_check=check_host_port, accepted="a list of 'host:port'"),
+    Setting("links.tcp_listen", "127.0.0.1:5760",
+            "TCP server address for MAVProxy and other TCP clients ('' disables).",
+            item_check=lambda v: None if v == "" else check_host_port(v), accepted="'host:port' or ''"),
+    Setting("links.serial", [],
+            "Serial telemetry radios, each 'device[:baud]'; a vanished port is retried.",
+            kind=list, item_check=check_serial, accepted="a list of 'device[:baud]'"),
+    Setting("links.tlog", True, "Write a telemetry log (.tlog) of every link in state_dir/logs.",
+            kind=bool),
+    Setting("sensors.gnss_port", "",
+            "Serial device of the GPS-INS (XW-GI5630); empty in SITL, where the simulator feeds "
+            "the same parser.", accepted="a device path or ''"),
+    Setting("sensors.gnss_baud", 115200, "Baud rate of the GPS-INS serial port.", kind=int,
+            min=1200, max=4_000_000),
+    Setting("servos.port", "", "Serial device of the servo controller; empty in SITL.",
+            accepted="a device path or ''"),
+    Setting("sim.lockstep", True,
+            "SITL: advance physics only after the companion answered (deterministic, fast).",
+            kind=bool),
+    Setting("sim.speedup", 1.0, "SITL: speed cap relative to real time (0 = as fast as possible).",
+            kind=float, min=0.0, max=10000.0),
+    Setting("sim.seed", 1, "SITL: random seed of disturbances and sensor noise.", kind=int,
+            min=0, max=2**31 - 1),
+    Setting("sim.wind", "0,0", "SITL: wind 'SPEED_MPS,FROM_DEG' (meteorological convention).",
+            accepted="'SPEED_MPS,FROM_DEG'"),
+    Setting("sim.current", "0,0", "SITL: current 'SPEED_MPS,TOWARD_DEG' (oceanographic convention).",
+            accepted="'SPEED_MPS,TOWARD_DEG'"),
+    Setting("sim.waves", "0", "SITL: waves 'HS_M[,TP_S]' (significant height, peak period).",
+            accepted="'HS_M[,TP_S]'"),
+    Setting("sim.home", "41.7700,123.4300,0",
+            "SITL: start position 'LAT_DEG,LON_DEG,HEADING_DEG' (default: Shenyang, as in the chapter).",
+            accepted="'LAT_DEG,LON_DEG,HEADING_DEG'"),
+)
+
+SETTINGS_BY_KEY: dict[str, Setting] = {s.key: s for s in SETTINGS}
+
+
+@dataclass(frozen=True)
+class Config:
+    """Validated configuration: setting values by dotted key and initial parameter values."""
+
+    values: Mapping[str, Any]
+    params: Mapping[str, float]
+    source: str = "<defaults>"
+
+    def __getitem__(self, key: str) -> Any:
+        return self.values[key]
+
+    def state_dir(self) -> Path:
+        return Path(self.values["vehicle.state_dir"] or default_state_dir()).expanduser()
+
+    def with_overrides(self, overrides: Mapping[str, Any]) -> Config:
+        """A copy with some settings replaced (command-line flags), validated the same way."""
+        merged = dict(self.values)
+        for key, value in overrides.items():
+            merged[key] = _setting(key).validate(value)
+        return Config(merged, self.params, self.source)
+
+
+def _setting(key: str) -> Setting:
+    try:
+        return SETTINGS_BY_KEY[key]
+    except KeyError:
+        section = key.partition(".")[0]
+        known = sorted(k for k in SETTINGS_BY_KEY if k.startswith(section + "."))
+        hint = f"; known keys in [{section}]: {', '.join(known)}" if known else (
+            f"; known sections: {', '.join(sorted({k.partition('.')[0] for k in SETTINGS_BY_KEY}))}, params")
+        raise ConfigError(f"unknown config key {key!r}{hint}") from None
+
+
+def default_config() -> Config:
+    return Config({s.key: s.default for s in SETTINGS}, {})
+
+
+def parse_config(data: Mapping[str, Any], param_defs: Iterable[ParamDef], source: str = "<dict>") -> Config:
+    """Validate a TOML document (already parsed) into a :class:`Config`."""
+    values = {s.key: s.default for s in SETTINGS}
+    params: dict[str, float] = {}
+    defs = {d.name: d for d in param_defs}
+    for section, table in data.items():
+        if section == "params":
+            if not isinstance(table, dict):
+                raise ConfigError("params: expected a table of NAME = value")
+            for name, value in table.items():
+                if name not in defs:
+                    raise ConfigError(f"unknown parameter params.{name} (see `usv params`)")
+                try:
+                    params[name] = defs[name].validate(value)
+                except ParamError as exc:
+                    raise ConfigError(f"params.{exc}") from None
+            continue
+        if not isinstance(table, dict):
+            _setting(section)  # raises with the list of sections
+            raise ConfigError(f"{section}: expected a table")
+        for name, value in table.items():
+            key = f"{section}.{name}"
+            values[key] = _setting(key).validate(value)
+    return Config(values, params, source)
+
+
+def load_config(path: Path | None, param_defs: Iterable[ParamDef]) -> Config:
+    """Read and validate a TOML configuration file (``None``: embedded SITL defaults)."""
+    if path is None:
+        return parse_config({}, param_defs)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(f"cannot read config file {path}: {exc.strerror or exc}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: not valid TOML ({exc})") from None
+    return parse_config(data, param_defs, str(path))

@@ -1,0 +1,150 @@
+"""Frozen message dataclasses exchanged over the bus.
+
+Every message carries ``t_s`` (seconds of the :mod:`companion.clock` time base) and uses SI
+units with the unit in the field name.  Angles are radians, heading/course are measured
+clockwise from true north in [0, 2*pi), body velocities follow Fossen's notation
+nu = [u, v, r] (surge m/s, sway m/s positive to starboard, yaw rate rad/s positive
+clockwise seen from above).  Topic names live next to the types in :data:`TOPICS` so
+that publishers and subscribers agree on them in one place.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass, field
+
+
+class FixType(enum.IntEnum):
+    """GNSS fix quality, numbered as MAVLink's GPS_FIX_TYPE."""
+
+    NO_GPS = 0
+    NO_FIX = 1
+    FIX_2D = 2
+    FIX_3D = 3
+    DGPS = 4
+    RTK_FLOAT = 5
+    RTK_FIXED = 6
+
+
+class ControlSource(enum.IntEnum):
+    """Who drives the servos, as set by the boat's RC/GCS selector switch servo."""
+
+    RC = 0
+    COMPANION = 1
+
+
+@dataclass(frozen=True, slots=True)
+class NavState:
+    """Navigation solution of the GPS-INS (chapter Table 2), one sample."""
+
+    t_s: float
+    lat_deg: float
+    lon_deg: float
+    alt_m: float
+    heading_rad: float
+    roll_rad: float
+    pitch_rad: float
+    vel_north_mps: float
+    vel_east_mps: float
+    u_mps: float
+    v_mps: float
+    r_radps: float
+    fix_type: FixType = FixType.FIX_3D
+    satellites: int = 12
+    position_valid: bool = True
+    attitude_valid: bool = True
+
+    @property
+    def speed_over_ground_mps(self) -> float:
+        return float((self.vel_north_mps**2 + self.vel_east_mps**2) ** 0.5)
+
+
+@dataclass(frozen=True, slots=True)
+class EngineState:
+    """Engine module output: shaft speed and whether the engine runs."""
+
+    t_s: float
+    rpm: float
+    running: bool
+
+
+@dataclass(frozen=True, slots=True)
+class ActuatorCommand:
+    """What the controller (or a manual/RC source) wants the actuators to do, in SI units."""
+
+    t_s: float
+    nozzle_rad: float = 0.0
+    throttle: float = 0.0
+    ignition_on: bool = False
+    source: ControlSource = ControlSource.COMPANION
+    launcher_trigger: bool = False
+    pump_on: bool = False
+
+
+@dataclass(frozen=True, slots=True)
+class ServoOutputs:
+    """Pulse widths in microseconds per output channel (1-based channel i at index i-1)."""
+
+    t_s: float
+    pulse_us: tuple[int, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class RcInput:
+    """RC receiver channels in microseconds and the selector switch position."""
+
+    t_s: float
+    channels_us: tuple[int, ...]
+    source: ControlSource = ControlSource.COMPANION
+
+
+@dataclass(frozen=True, slots=True)
+class Setpoint:
+    """Guidance output: desired course and speed over ground."""
+
+    t_s: float
+    course_rad: float
+    speed_mps: float
+
+
+@dataclass(frozen=True, slots=True)
+class ModelError:
+    """UKF estimate of the model error delta_nu (chapter Eq. 5) and its covariance diagonal."""
+
+    t_s: float
+    delta_nu: tuple[float, float, float]
+    delta_nu_var: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    innovation_nis: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class StatusText:
+    """A human-readable event for the operator (becomes MAVLink STATUSTEXT)."""
+
+    t_s: float
+    severity: int
+    text: str
+
+
+@dataclass(frozen=True, slots=True)
+class VehicleStatus:
+    """Arming state and the current mode (ArduPilot Rover custom-mode number)."""
+
+    t_s: float
+    armed: bool
+    mode: int
+    flags: tuple[str, ...] = field(default_factory=tuple)
+
+
+TOPICS: dict[str, type] = {
+    "nav": NavState,
+    "engine": EngineState,
+    "actuator_cmd": ActuatorCommand,
+    "servo_out": ServoOutputs,
+    "rc_in": RcInput,
+    "setpoint": Setpoint,
+    "model_error": ModelError,
+    "status_text": StatusText,
+    "vehicle_status": VehicleStatus,
+}
+"""Canonical topic names and their message types."""

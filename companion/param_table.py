@@ -1,0 +1,25 @@
+"""The one parameter table: every subsystem's :class:`~companion.params.ParamDef` list.
+
+Adding a parameter: put its ``ParamDef`` in the ``PARAMS`` tuple of the subsystem's
+``params`` module (or add a new module and one line below).  Order here is the MAVLink
+param_index order, so append rather than insert once a release is out.
+"""
+
+from __future__ import annotations
+
+from companion.params import ParamDef
+
+CORE_PARAMS: tuple[ParamDef, ...] = (
+    ParamDef("SYSID_THISMAV", 1, 1, 255, "", "MAVLink system id of this vehicle.", is_int=True,
+             reboot_required=True),
+    ParamDef("FRAME_CLASS", 2, 2, 2, "", "ArduPilot Rover frame class; 2 = boat (read by GCS software).",
+             is_int=True, choices=((2, "Boat"),)),
+    ParamDef("USV_LOOP_HZ", 100, 10, 200, "Hz",
+             "Control loop rate; the chapter's control period is 0.01 s (100 Hz).", is_int=True,
+             reboot_required=True),
+)
+
+
+def all_param_defs() -> tuple[ParamDef, ...]:
+    """Every parameter of the product, in param_index order."""
+    return CORE_PARAMS

@@ -1,0 +1,1 @@
+"""MAVSDK-Python mission scripts for the boat: rescue rope throw, water sampling."""

@@ -1,0 +1,1 @@
+"""Simulated flood-rescue USV (software in the loop): plant, disturbances, sensors, hardware seam."""
