@@ -1,0 +1,1 @@
+"""The vehicle's MAVLink services: commands, parameters, missions, telemetry."""

@@ -1,0 +1,1 @@
+"""Vehicle modes: one class per file, listed once in :data:`companion.modes.manager.MODE_CLASSES`."""

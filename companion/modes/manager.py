@@ -1,0 +1,142 @@
+"""The mode registry and the switch between modes.
+
+:data:`MODE_CLASSES` is the only place modes are listed: adding a mode is one file in
+``companion/modes/``, one line here and one test.  :class:`ModeManager` owns one instance
+of each, checks a mode's requirements before entering it (refusals come back as a reason
+for the operator), runs ``exit``/``enter`` in order and calls the active mode's ``update``
+from the control loop.  A mode that raises in ``update`` is replaced by HOLD so the boat
+stops instead of running with a broken mode.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+from companion.messages import NavState
+from companion.modes.base import Mode
+from companion.modes.hold import HoldMode
+from companion.modes.manual import ManualMode
+
+if TYPE_CHECKING:
+    from companion.vehicle import Vehicle
+
+log = logging.getLogger(__name__)
+
+MODE_CLASSES: list[type[Mode]] = [
+    ManualMode,
+    HoldMode,
+]
+"""Every mode of the vehicle (one line per mode)."""
+
+INITIAL_MODE_NUMBER = HoldMode.number
+"""The boat boots in HOLD: engine idle, nozzle centred (it drifts)."""
+
+FALLBACK_MODE_NUMBER = HoldMode.number
+"""Where the manager goes when a mode fails."""
+
+ModeListener = Callable[[Mode, Mode], None]
+
+
+class ModeManager:
+    """One instance of each registered mode and the currently active one."""
+
+    def __init__(self, vehicle: Vehicle, classes: list[type[Mode]] | None = None) -> None:
+        self.vehicle = vehicle
+        self._modes: dict[int, Mode] = {}
+        for cls in classes if classes is not None else MODE_CLASSES:
+            mode = cls()
+            if mode.number in self._modes:
+                other = self._modes[mode.number]
+                raise ValueError(f"mode number {mode.number} used by {other!r} and {mode!r}")
+            self._modes[mode.number] = mode
+        initial = self._modes.get(INITIAL_MODE_NUMBER) or next(iter(self._modes.values()))
+        self._current = initial
+        self._listeners: list[ModeListener] = []
+        self._entered = False
+        self.intended_number = initial.number
+
+    @property
+    def current(self) -> Mode:
+        """The active mode."""
+        return self._current
+
+    def start(self) -> None:
+        """Enter the initial mode (called once the vehicle is wired)."""
+        if not self._entered:
+            self._entered = True
+            self._current.enter(self.vehicle)
+
+    def available(self) -> list[Mode]:
+        """Every registered mode, ordered by number (AVAILABLE_MODES order)."""
+        return [self._modes[n] for n in sorted(self._modes)]
+
+    def get(self, number: int) -> Mode | None:
+        return self._modes.get(number)
+
+    def by_name(self, name: str) -> Mode | None:
+        wanted = name.strip().upper()
+        return next((m for m in self._modes.values() if m.name == wanted), None)
+
+    def by_standard_mode(self, standard_mode: int) -> Mode | None:
+        return next((m for m in self.available() if m.standard_mode == standard_mode), None)
+
+    def add_listener(self, listener: ModeListener) -> None:
+        """``listener(old, new)`` runs after every successful mode change."""
+        self._listeners.append(listener)
+
+    def set_mode(self, number: int) -> str | None:
+        """Switch to mode ``number``; ``None`` when accepted, otherwise the reason for refusal."""
+        mode = self._modes.get(int(number)) if float(number).is_integer() else None
+        if mode is None:
+            known = ", ".join(f"{m.name}={m.number}" for m in self.available())
+            return f"unknown mode {number:g} (modes: {known})"
+        if mode is self._current and self._entered:
+            return None
+        try:
+            reason = mode.requirements(self.vehicle)
+        except Exception as exc:
+            log.exception("requirements() of %r failed", mode)
+            reason = f"{mode.name} check failed: {exc}"
+        if reason:
+            return f"{mode.name}: {reason}"
+        return self._switch(mode)
+
+    def _switch(self, mode: Mode) -> str | None:
+        old = self._current
+        if self._entered:
+            try:
+                old.exit(self.vehicle)
+            except Exception:
+                log.exception("exit() of %r failed", old)
+        try:
+            mode.enter(self.vehicle)
+        except Exception as exc:
+            log.exception("enter() of %r failed", mode)
+            try:
+                old.enter(self.vehicle)
+            except Exception:
+                log.exception("re-entering %r failed", old)
+            return f"{mode.name}: could not start ({exc})"
+        self._entered = True
+        self._current = mode
+        self.intended_number = mode.number
+        for listener in tuple(self._listeners):
+            try:
+                listener(old, mode)
+            except Exception:
+                log.exception("mode listener failed")
+        return None
+
+    def update(self, nav: NavState) -> None:
+        """Run the active mode for one navigation sample (called by the control loop)."""
+        mode = self._current
+        try:
+            mode.update(self.vehicle, nav)
+        except Exception as exc:
+            log.exception("update() of %r failed", mode)
+            fallback = self._modes.get(FALLBACK_MODE_NUMBER)
+            if fallback is not None and fallback is not mode:
+                self.vehicle.status(f"{mode.name} failed ({exc}); switching to {fallback.name}", 2)
+                self._switch(fallback)

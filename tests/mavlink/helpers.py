@@ -1,0 +1,39 @@
+"""Test helpers for the MAVLink area: a plain context with a simulation clock and nav samples."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from companion.app import Context
+from companion.bus import Bus
+from companion.clock import SimClock
+from companion.config import default_config
+from companion.messages import FixType, NavState
+from companion.param_table import all_param_defs
+from companion.params import ParamStore
+
+HOME_LAT_DEG = 41.77
+HOME_LON_DEG = 123.43
+
+
+def make_ctx(state_dir: Path | None = None, profile: str = "ardurover") -> Context:
+    overrides: dict[str, object] = {"vehicle.profile": profile}
+    if state_dir is not None:
+        overrides["vehicle.state_dir"] = str(state_dir)
+    config = default_config().with_overrides(overrides)
+    params = ParamStore(all_param_defs(), None if state_dir is None else state_dir / "params.toml")
+    return Context(config=config, clock=SimClock(start_unix_time_s=1.7e9), bus=Bus(), params=params)
+
+
+def nav_sample(t_s: float, *, lat_deg: float = HOME_LAT_DEG, lon_deg: float = HOME_LON_DEG,
+               fix: FixType = FixType.FIX_3D, valid: bool = True, heading_rad: float = 0.5,
+               u_mps: float = 0.0) -> NavState:
+    return NavState(t_s=t_s, lat_deg=lat_deg, lon_deg=lon_deg, alt_m=0.0, heading_rad=heading_rad,
+                    roll_rad=0.01, pitch_rad=-0.02, vel_north_mps=u_mps, vel_east_mps=0.0, u_mps=u_mps,
+                    v_mps=0.0, r_radps=0.0, fix_type=fix, position_valid=valid)
+
+
+def publish_nav(ctx: Context, **kwargs: object) -> NavState:
+    nav = nav_sample(ctx.clock.now_s(), **kwargs)  # type: ignore[arg-type]
+    ctx.bus.topic("nav", NavState).publish(nav)
+    return nav
