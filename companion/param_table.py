@@ -22,4 +22,7 @@ CORE_PARAMS: tuple[ParamDef, ...] = (
 
 def all_param_defs() -> tuple[ParamDef, ...]:
     """Every parameter of the product, in param_index order."""
-    return CORE_PARAMS
+    from companion.control.params import PARAMS as CONTROL_PARAMS
+    from companion.guidance.params import PARAMS as GUIDANCE_PARAMS
+
+    return CORE_PARAMS + GUIDANCE_PARAMS + CONTROL_PARAMS

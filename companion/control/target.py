@@ -1,0 +1,85 @@
+"""What guidance asks of the controllers, the crab-angle estimate, and the controller interface.
+
+Guidance (:mod:`companion.guidance`) produces a desired course over ground ``chi_d`` (or, for
+station keeping and course hold, a desired heading ``psi_d``) and a speed.  Controllers steer the
+*heading*; the two differ by the crab angle ``beta = chi - psi`` (sideslip plus the current seen
+over ground, Fossen 2021 Eq. 2.115), so ``psi_d = chi_d - beta_hat`` with ``beta_hat`` the measured
+crab angle, low-pass filtered.  Every controller family implements :class:`CourseSpeedController`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Protocol
+
+from companion.control.actuator import Saturation
+from companion.control.pid import LowPass
+from companion.guidance.geo import wrap_pi
+from companion.messages import NavState
+
+
+@dataclass(frozen=True, slots=True)
+class ControlTarget:
+    """Desired motion for one control step."""
+
+    course_rad: float
+    """Desired course over ground (or heading when ``is_heading``), clockwise from north."""
+    speed_mps: float
+    """Desired surge speed over ground (may be negative only for station keeping)."""
+    course_rate_radps: float = 0.0
+    """Feed-forward turn rate (e.g. U/R when circling)."""
+    is_heading: bool = False
+    """``course_rad`` is a heading: do not remove the crab angle (station keeping, course hold)."""
+
+
+@dataclass(frozen=True, slots=True)
+class ControlOutput:
+    nozzle_rad: float
+    throttle: float
+    heading_cmd_rad: float
+    """The heading the controller steered for (after crab compensation), for telemetry."""
+
+
+class CourseSpeedController(Protocol):
+    """A controller family: (nav, target, dt, actuator saturation) -> nozzle angle and throttle."""
+
+    name: str
+
+    def reset(self, nav: NavState) -> None: ...
+
+    def update(self, nav: NavState, target: ControlTarget, dt_s: float, sat: Saturation) -> ControlOutput: ...
+
+
+class CrabEstimator:
+    """Low-pass filtered crab angle ``beta = course over ground - heading`` (rad).
+
+    Below ``min_speed_mps`` the course over ground is noise, so the estimate holds its value.
+    """
+
+    def __init__(self, tau_s: float = 0.5, min_speed_mps: float = 0.8,
+                 beta_max_rad: float = math.radians(35.0)) -> None:
+        self._lp_sin = LowPass(tau_s, 0.0)
+        self._lp_cos = LowPass(tau_s, 1.0)
+        self.min_speed_mps = min_speed_mps
+        self.beta_max_rad = beta_max_rad
+        self.beta_rad = 0.0
+
+    def reset(self) -> None:
+        self._lp_sin.value, self._lp_cos.value, self.beta_rad = 0.0, 1.0, 0.0
+
+    def update(self, nav: NavState, dt_s: float) -> float:
+        if nav.speed_over_ground_mps >= self.min_speed_mps:
+            chi = math.atan2(nav.vel_east_mps, nav.vel_north_mps)
+            beta = wrap_pi(chi - nav.heading_rad)
+            # filter on the unit circle so that +-pi wrap does not upset it
+            s = self._lp_sin.step(math.sin(beta), dt_s)
+            c = self._lp_cos.step(math.cos(beta), dt_s)
+            self.beta_rad = max(-self.beta_max_rad, min(self.beta_max_rad, math.atan2(s, c)))
+        return self.beta_rad
+
+    def heading_command(self, target: ControlTarget) -> float:
+        """Heading to steer for ``target`` (crab removed unless the target is a heading)."""
+        if target.is_heading:
+            return target.course_rad
+        return target.course_rad - self.beta_rad

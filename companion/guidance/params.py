@@ -1,0 +1,51 @@
+"""Guidance parameters (LOS path following, point tracking, station keeping) and builders.
+
+ArduPilot-named parameters (WP_RADIUS, WP_SPEED, LOIT_RADIUS, CRUISE_SPEED) belong to the MAVLink
+parameter module and are read by name; the ones here are this project's own.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Protocol
+
+from companion.guidance.circle import CircleGains
+from companion.guidance.los import LosGains, LosType
+from companion.guidance.station import StationGains
+from companion.params import ParamDef
+
+PARAMS: tuple[ParamDef, ...] = (
+    ParamDef("USV_LOS_TYPE", int(LosType.ILOS), 0, 1, "",
+             "Path following law (Fossen 2021 sec. 12.4): 0 = integral LOS, 1 = adaptive LOS. Both crab "
+             "into a cross-current instead of drifting off the line.", is_int=True,
+             choices=((0, "ILOS"), (1, "ALOS"))),
+    ParamDef("USV_LOS_DELTA", 8.0, 1.0, 100.0, "m", "LOS look-ahead distance Delta."),
+    ParamDef("USV_LOS_KI", 0.02, 0.0, 1.0, "1/m", "ILOS integral gain Ki."),
+    ParamDef("USV_ALOS_GAMMA", 0.002, 0.0, 0.1, "rad/(m s)", "ALOS crab-angle adaptation gain gamma."),
+    ParamDef("USV_CIRC_K", 2.0, 0.1, 20.0, "", "Point tracking: convergence gain onto the circle."),
+    ParamDef("USV_CIRC_KI", 0.05, 0.0, 1.0, "1/s", "Point tracking: integral gain on the radial error."),
+    ParamDef("USV_CIRC_SPD", 2.0, 0.5, 10.0, "m/s", "Point tracking: speed while circling a point."),
+    ParamDef("USV_TURN_RAD", 1.375, 0.5, 50.0, "m",
+             "Minimum turning radius of the boat; default circle radius for point tracking."),
+    ParamDef("USV_STN_P", 0.25, 0.01, 2.0, "1/s", "Station keeping: ground speed per metre of error."),
+    ParamDef("USV_STN_I", 0.01, 0.0, 0.5, "1/s^2", "Station keeping: current-estimate integral gain."),
+    ParamDef("USV_STN_VMAX", 2.0, 0.2, 10.0, "m/s", "Station keeping: largest approach speed."),
+)
+
+
+class ParamReader(Protocol):
+    def get(self, name: str) -> float: ...
+
+
+def los_gains(p: ParamReader) -> LosGains:
+    return LosGains(lookahead_m=p.get("USV_LOS_DELTA"), ki=p.get("USV_LOS_KI"), gamma=p.get("USV_ALOS_GAMMA"),
+                    beta_max_rad=math.radians(30.0))
+
+
+def circle_gains(p: ParamReader) -> CircleGains:
+    return CircleGains(k_orbit=p.get("USV_CIRC_K"), ki_per_s=p.get("USV_CIRC_KI"))
+
+
+def station_gains(p: ParamReader) -> StationGains:
+    return StationGains(kp_per_s=p.get("USV_STN_P"), ki_per_s2=p.get("USV_STN_I"),
+                        v_max_mps=p.get("USV_STN_VMAX"))

@@ -1,0 +1,151 @@
+"""Control building blocks: PID anti-windup, actuator limits/flags, qLPV inversion, families."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from companion.control.active_model import ActiveModelConfig, ActiveModelController, throttle_for_thrust
+from companion.control.actuator import (
+    NO_SATURATION,
+    ActuatorLimits,
+    ActuatorMapper,
+    nozzle_to_pulse_us,
+    throttle_to_pulse_us,
+)
+from companion.control.pid import Pid, PidGains, RateLimiter
+from companion.control.pid_family import PidConfig, PidController
+from companion.control.target import ControlTarget
+from companion.guidance.geo import wrap_pi
+from companion.messages import NavState
+from companion.models.qlpv import QLPV_FEATURES, QLPVModel
+
+
+def toy_model(yaw_gain: float = 3.0) -> QLPVModel:
+    """A hand-made qLPV model with plausible signs (not identified; for unit tests only)."""
+    theta = np.zeros((3, len(QLPV_FEATURES)))
+    i = QLPV_FEATURES.index
+    theta[0, i("u")], theta[0, i("|u|u")], theta[0, i("Tcos")] = -0.1, -0.06, 2.0
+    theta[1, i("v")], theta[1, i("r")], theta[1, i("ur")], theta[1, i("Tsin")] = -1.2, -0.1, -0.3, -0.5
+    theta[2, i("v")], theta[2, i("r")], theta[2, i("|r|r")], theta[2, i("Tsin")] = 0.2, -1.5, -0.5, yaw_gain
+    return QLPVModel(theta=theta, name="toy", thrust_speed_coeff=0.05)
+
+
+def nav_from(t: float, x: float, y: float, psi: float, nu: np.ndarray) -> NavState:
+    u, v, r = (float(a) for a in nu)
+    vn = u * math.cos(psi) - v * math.sin(psi)
+    ve = u * math.sin(psi) + v * math.cos(psi)
+    return NavState(t_s=t, lat_deg=0.0, lon_deg=0.0, alt_m=0.0, heading_rad=psi % (2 * math.pi), roll_rad=0.0,
+                    pitch_rad=0.0, vel_north_mps=vn, vel_east_mps=ve, u_mps=u, v_mps=v, r_radps=r)
+
+
+def test_pid_integrator_stops_growing_into_a_saturated_actuator() -> None:
+    pid = Pid(PidGains(kp=1.0, ki=1.0, out_min=-1.0, out_max=1.0))
+    for _ in range(100):
+        pid.update(0.5, 0.1, saturated_high=True)
+    assert pid.integral == 0.0
+    for _ in range(10):
+        pid.update(0.5, 0.1)
+    assert pid.integral == pytest.approx(0.5)  # integrates while the output stays below its limit
+    assert pid.update(-0.5, 0.1, saturated_high=True) < 1.0  # may still unwind
+
+
+def test_pid_holds_its_output_on_nan_input() -> None:
+    pid = Pid(PidGains(kp=2.0))
+    assert pid.update(0.25, 0.01) == 0.5
+    assert pid.update(float("nan"), 0.01) == 0.5
+
+
+def test_rate_limiter() -> None:
+    lim = RateLimiter(2.0)
+    assert lim.step(10.0, 0.5) == 1.0
+    assert lim.step(-10.0, 0.25) == 0.5
+
+
+def test_actuator_mapper_limits_slews_and_flags() -> None:
+    m = ActuatorMapper(ActuatorLimits(nozzle_max_rad=0.5, nozzle_rate_radps=1.0, throttle_rate_per_s=1.0))
+    noz, thr, sat = m.apply(1.0, 0.2, 0.1)
+    assert noz == pytest.approx(0.1) and thr == pytest.approx(0.1)
+    assert sat.nozzle_high and sat.throttle_high and not sat.nozzle_low
+    for _ in range(20):
+        noz, thr, sat = m.apply(1.0, 0.2, 0.1)
+    assert noz == pytest.approx(0.5) and thr == pytest.approx(0.2)
+    assert sat.nozzle_high and not sat.throttle_high  # range limit still reported
+    noz, thr, sat = m.apply(float("nan"), float("inf"), 0.1)
+    assert math.isfinite(noz) and math.isfinite(thr)
+
+
+def test_servo_pulses() -> None:
+    assert nozzle_to_pulse_us(0.0, 0.5) == 1500
+    assert nozzle_to_pulse_us(0.5, 0.5) == 1900 and nozzle_to_pulse_us(-9.0, 0.5) == 1100
+    assert throttle_to_pulse_us(0.0) == 1100 and throttle_to_pulse_us(1.0) == 1900
+
+
+def test_thrust_map_inversion() -> None:
+    model = toy_model()
+    for thr in (0.0, 0.3, 0.9):
+        for u in (0.0, 3.0, 6.0):
+            t = float(model.thrust(thr, u))
+            if t > 0:
+                assert throttle_for_thrust(model, t, u) == pytest.approx(thr)
+
+
+def test_active_model_inversion_achieves_the_designed_accelerations() -> None:
+    """Plant == model: the law's input makes the model produce exactly the desired r_dot and u_dot."""
+    model = toy_model()
+    cfg = ActiveModelConfig(compensate_model_error=False, nozzle_max_rad=math.radians(40))
+    ctl = ActiveModelController(model, cfg)
+    nu = np.array([2.0, 0.1, 0.05])
+    nav = nav_from(0.0, 0, 0, 0.0, nu)
+    target = ControlTarget(course_rad=math.radians(10.0), speed_mps=2.5, is_heading=True)
+    out = ctl.update(nav, target, 0.01, NO_SATURATION)
+    nu_dot = model.derivative(nu, out.throttle, out.nozzle_rad)
+    r_d = cfg.heading.heading_p_per_s * math.radians(10.0)
+    assert nu_dot[2] == pytest.approx(cfg.rate_k_per_s * (r_d - 0.05), rel=1e-6)
+    assert nu_dot[0] == pytest.approx(cfg.speed_k_per_s * 0.5, rel=1e-6)
+
+
+def _closed_loop(ctl: object, model: QLPVModel, disturbance: np.ndarray, heading_cmd: float,
+                 speed_cmd: float, duration_s: float) -> tuple[list[float], list[float]]:
+    """Controller + actuator mapper on a qLPV plant with an additive disturbance (Eq. 5)."""
+    mapper = ActuatorMapper(ActuatorLimits(nozzle_max_rad=math.radians(30)))
+    nu = np.array([speed_cmd, 0.0, 0.0])
+    psi, dt, sat = 0.0, 0.01, NO_SATURATION
+    throttle = 0.0
+    headings, speeds = [], []
+    for k in range(int(duration_s / dt)):
+        nav = nav_from(k * dt, 0, 0, psi, nu)
+        out = ctl.update(nav, ControlTarget(heading_cmd, speed_cmd, is_heading=True), dt, sat)  # type: ignore[attr-defined]
+        noz, throttle, sat = mapper.apply(out.nozzle_rad, out.throttle, dt)
+        nu = model.step(nu, throttle, noz, dt, disturbance)
+        psi += nu[2] * dt
+        headings.append(wrap_pi(heading_cmd - psi))
+        speeds.append(speed_cmd - nu[0])
+    return headings, speeds
+
+
+def test_model_error_compensation_removes_the_steady_offset_of_the_nominal_law() -> None:
+    model = toy_model()
+    disturbance = np.array([-0.2, 0.0, 0.15])  # e.g. a wind moment and drag the model does not know
+    nominal = ActiveModelController(model, ActiveModelConfig(compensate_model_error=False))
+    h_nom, s_nom = _closed_loop(nominal, model, disturbance, 0.5, 3.0, 30.0)
+    compensated = ActiveModelController(model, ActiveModelConfig(),
+                                        delta_nu=lambda: (float(disturbance[0]), 0.0, float(disturbance[2])))
+    h_cmp, s_cmp = _closed_loop(compensated, model, disturbance, 0.5, 3.0, 30.0)
+    assert abs(h_nom[-1]) > math.radians(1.0) and abs(s_nom[-1]) > 0.05
+    assert abs(h_cmp[-1]) < math.radians(0.05) and abs(s_cmp[-1]) < 0.005
+
+
+def test_pid_family_removes_the_steady_offset_with_integral_action() -> None:
+    model = toy_model()
+    cfg = PidConfig(cruise_throttle=0.5, cruise_speed_mps=3.0, speed_ref_mps=3.0)
+    h, s = _closed_loop(PidController(cfg), model, np.array([-0.2, 0.0, 0.15]), 0.5, 3.0, 60.0)
+    assert abs(h[-1]) < math.radians(0.5) and abs(s[-1]) < 0.05
+
+
+def test_active_model_refuses_a_model_without_control_authority() -> None:
+    model = toy_model(yaw_gain=0.0)
+    with pytest.raises(ValueError, match="authority"):
+        ActiveModelController(model)

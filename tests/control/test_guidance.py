@@ -1,0 +1,125 @@
+"""Guidance building blocks: geodesy, ILOS/ALOS crabbing into current, circling, station keeping."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from companion.guidance.circle import CircleTracker
+from companion.guidance.geo import LocalFrame, distance_bearing, valid_lat_lon, wrap_pi
+from companion.guidance.los import LosFollower, LosGains, LosType, leg_errors
+from companion.guidance.station import StationKeeper
+
+
+def test_one_degree_of_latitude_is_the_wgs84_meridian_arc() -> None:
+    # length of 1 degree of latitude at the equator: 110.574 km; at 60 deg: 111.412 km (WGS-84)
+    assert LocalFrame(0.0, 0.0).to_ne(1.0, 0.0)[0] == pytest.approx(110574, rel=2e-3)
+    assert LocalFrame(60.0, 10.0).to_ne(61.0, 10.0)[0] == pytest.approx(111412, rel=2e-3)
+    # 1 degree of longitude at 60 deg is about half that at the equator
+    assert LocalFrame(60.0, 10.0).to_ne(60.0, 11.0)[1] == pytest.approx(55800, rel=5e-3)
+
+
+@given(st.floats(-80, 80), st.floats(-179.9, 179.9), st.floats(-5000, 5000), st.floats(-5000, 5000))
+def test_local_frame_round_trip(lat0: float, lon0: float, n: float, e: float) -> None:
+    f = LocalFrame(lat0, lon0)
+    lat, lon = f.to_lat_lon(n, e)
+    n2, e2 = f.to_ne(lat, lon)
+    assert n2 == pytest.approx(n, abs=1e-6) and e2 == pytest.approx(e, abs=1e-6)
+
+
+def test_invalid_coordinates_are_refused() -> None:
+    assert not valid_lat_lon(float("nan"), 0.0)
+    assert not valid_lat_lon(91.0, 0.0)
+    assert not valid_lat_lon(0.0, 181.0)
+    with pytest.raises(ValueError):
+        LocalFrame(float("nan"), 0.0)
+
+
+def test_leg_errors_sign_convention() -> None:
+    # leg due north; a boat east of it is right of the path: positive cross-track error
+    err = leg_errors((0.0, 0.0), (100.0, 0.0), (30.0, 2.0))
+    assert err.along_m == pytest.approx(30.0) and err.cross_m == pytest.approx(2.0)
+    assert err.remaining_m == pytest.approx(70.0)
+    assert distance_bearing(0.0, 1.0)[1] == pytest.approx(math.pi / 2)
+
+
+def _run_los(los: LosFollower, current_ne: tuple[float, float], speed_mps: float = 5.0,
+             duration_s: float = 120.0) -> list[float]:
+    """Kinematic boat: heading follows the commanded course with a 0.5 s lag (no crab
+    compensation), velocity over ground = through-water velocity + current."""
+    los.set_leg((0.0, 0.0), (10_000.0, 0.0))
+    x, y, psi, dt = 0.0, 5.0, 0.0, 0.05
+    cross = []
+    for _ in range(int(duration_s / dt)):
+        out = los.update((x, y), speed_mps, dt)
+        psi += wrap_pi(out.course_rad - psi) * dt / 0.5
+        x += (speed_mps * math.cos(psi) + current_ne[0]) * dt
+        y += (speed_mps * math.sin(psi) + current_ne[1]) * dt
+        cross.append(out.errors.cross_m)
+    return cross
+
+
+@pytest.mark.parametrize("los_type", [LosType.ILOS, LosType.ALOS])
+def test_integral_and_adaptive_los_crab_into_cross_current(los_type: LosType) -> None:
+    cross = _run_los(LosFollower(LosGains(lookahead_m=8.0, ki=0.05, gamma=0.01), los_type), (0.0, 0.5))
+    assert max(abs(c) for c in cross[-200:]) < 0.05
+
+
+def test_plain_los_without_integral_drifts_off_the_line() -> None:
+    cross = _run_los(LosFollower(LosGains(lookahead_m=8.0, ki=0.0), LosType.ILOS), (0.0, 0.5))
+    assert abs(cross[-1]) > 0.5  # steady offset of about Delta * tan(asin(c / U))
+
+
+def _run_circle(tracker: CircleTracker, start_ne: tuple[float, float], current_ne: tuple[float, float],
+                speed_mps: float, duration_s: float) -> list[float]:
+    x, y = start_ne
+    psi, dt = 0.0, 0.02
+    radial = []
+    for _ in range(int(duration_s / dt)):
+        out = tracker.update((x, y), speed_mps, dt)
+        # ideal course keeping: the ground course follows the command with a 0.3 s lag
+        psi += wrap_pi(out.course_rad - psi) * dt / 0.3
+        x += (speed_mps * math.cos(psi) + current_ne[0]) * dt
+        y += (speed_mps * math.sin(psi) + current_ne[1]) * dt
+        radial.append(out.radial_error_m)
+    return radial
+
+
+def test_point_tracking_approaches_then_circles_at_the_radius() -> None:
+    tracker = CircleTracker((50.0, 40.0), radius_m=3.0, clockwise=True)
+    radial = _run_circle(tracker, (0.0, 0.0), (0.0, 0.0), 2.0, 90.0)
+    assert radial[0] > 50.0
+    assert max(abs(r) for r in radial[-1500:]) < 0.2
+
+
+def test_point_tracking_in_current_keeps_the_radius() -> None:
+    tracker = CircleTracker((0.0, 0.0), radius_m=3.0, clockwise=False)
+    radial = _run_circle(tracker, (-20.0, 5.0), (0.3, 0.0), 2.0, 120.0)
+    assert max(abs(r) for r in radial[-2500:]) < 0.6
+
+
+def test_station_keeping_points_into_current_and_stays_close() -> None:
+    """A jet boat that can only push forward: heading lags the command; current sets it south."""
+    keeper = StationKeeper((0.0, 0.0))
+    x, y, psi, u, dt = 8.0, -6.0, 0.0, 0.0, 0.05
+    current = (-0.4, 0.1)
+    dists = []
+    for _ in range(int(300 / dt)):
+        out = keeper.update((x, y), dt)
+        psi += wrap_pi(out.heading_rad - psi) * dt / 1.0
+        # speed over ground along the heading follows the command (surge >= -current component)
+        u += (out.surge_speed_mps - u) * dt / 1.0
+        x += (u * math.cos(psi)) * dt + 0.0 * current[0]
+        y += (u * math.sin(psi)) * dt
+        # the part of the current the boat does not stem perpendicular to its heading
+        cross = -current[0] * math.sin(psi) + current[1] * math.cos(psi)
+        x += -cross * math.sin(psi) * dt
+        y += cross * math.cos(psi) * dt
+        dists.append(out.distance_m)
+    assert max(dists[-2000:]) < 1.0
+    # bow into the current (current towards the south-east-ish: bow points north-west-ish)
+    into = math.atan2(-current[1], -current[0])
+    assert abs(wrap_pi(keeper.heading_rad - into)) < math.radians(20)
