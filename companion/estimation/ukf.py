@@ -1,0 +1,198 @@
+"""Unscented Kalman filter for the active model of Eq. 5-11.
+
+State x = [nu; delta_nu] (n = 6): body velocities nu = [u, v, r] and the unstructured
+model error delta_nu of Eq. 5.  Process model (Euler discretisation at the control period,
+0.01 s in the chapter):
+
+    nu_{k+1}       = nu_k + dt (A(nu_k) nu_k + B u_k + delta_nu_k)       (Eq. 3 + Eq. 5)
+    delta_nu_{k+1} = delta_nu_k  (random walk driven by Q)
+
+Measurement z = nu + noise (Eq. 5).  Defaults are the chapter's Eq. 13:
+Q = 1e-2 diag(0,0,0,16,2,1), R = 1e-3 diag(16,2,1), alpha = 1e-3, beta = 2, kappa = 0.
+
+Implementation notes.
+
+* Sigma points (Eq. 8) are Van der Merwe's scaled points, the same as filterpy's
+  ``MerweScaledSigmaPoints`` (rows of the upper Cholesky factor of (n+lambda)P), and all
+  13 are propagated through the model in one vectorised call (Eq. 9).
+* Measurement update (Eq. 10-11).  The chapter draws new sigma points from the predicted
+  mean and covariance; because z = H x is linear in the state, the unscented transform of
+  those points is exact: P_z = H P H^T + R and P_xz = P H^T.  We use these closed forms
+  (identical in exact arithmetic, not an approximation) and the Joseph form of Eq. 11's
+  covariance update, P = (I-KH) P (I-KH)^T + K R K^T, which stays symmetric positive
+  semidefinite in floating point.
+* alpha = 1e-3 makes lambda = alpha^2 n - n and the central weights about -1e6.  The mean
+  is accumulated relative to the central point (sum of weights is 1) to avoid cancelling
+  1e6-sized terms, the covariance is symmetrised after every step, and if P ever fails the
+  Cholesky factorisation, a jitter of 1e-12 * (trace(P)/n + 1) on the diagonal is added
+  (doubling until it factors) and counted in :attr:`UKF.jitter_count`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from companion.models.base import FloatArray, LinearInParamsModel
+from companion.models.qlpv import QLPVModel
+
+CHAPTER_Q_DIAG: tuple[float, ...] = tuple(1e-2 * np.array([0.0, 0.0, 0.0, 16.0, 2.0, 1.0]))
+CHAPTER_R_DIAG: tuple[float, ...] = tuple(1e-3 * np.array([16.0, 2.0, 1.0]))
+
+Derivative = Callable[[FloatArray, float, float], FloatArray]
+"""``(nu (k,3), throttle, delta_rad) -> nu_dot (k,3)``: the structured model, vectorised."""
+
+
+@dataclass(frozen=True)
+class UKFSettings:
+    """Tuning of the active-model UKF; defaults are the chapter's Eq. 13."""
+
+    q_diag: tuple[float, ...] = CHAPTER_Q_DIAG
+    r_diag: tuple[float, ...] = CHAPTER_R_DIAG
+    alpha: float = 1e-3
+    beta: float = 2.0
+    kappa: float = 0.0
+    p0_diag: tuple[float, ...] = field(default=())
+    """Initial covariance (Eq. 7); empty means diag(R, model-error block of Q * 100)."""
+
+
+def merwe_weights(n: int, alpha: float, beta: float, kappa: float) -> tuple[float, FloatArray, FloatArray]:
+    """(lambda, Wm, Wc) of the scaled unscented transform, as filterpy computes them."""
+    lam = alpha**2 * (n + kappa) - n
+    wm = np.full(2 * n + 1, 0.5 / (n + lam))
+    wc = wm.copy()
+    wm[0] = lam / (n + lam)
+    wc[0] = lam / (n + lam) + (1.0 - alpha**2 + beta)
+    return lam, wm, wc
+
+
+class UKF:
+    """Active-model UKF on x = [nu; delta_nu] with z = nu + noise (chapter Eq. 5-11)."""
+
+    n = 6
+    m = 3
+
+    def __init__(self, derivative: Derivative, settings: UKFSettings | None = None,
+                 x0: FloatArray | None = None, p0: FloatArray | None = None) -> None:
+        self.settings = s = settings or UKFSettings()
+        if len(s.q_diag) != 6 or len(s.r_diag) != 3:
+            raise ValueError("UKF needs 6 process-noise and 3 measurement-noise variances")
+        if min(s.q_diag) < 0 or min(s.r_diag) <= 0:
+            raise ValueError("Q must be >= 0 and R > 0 on the diagonal")
+        self.derivative = derivative
+        self.Q = np.diag(np.asarray(s.q_diag, dtype=float))
+        self.R = np.diag(np.asarray(s.r_diag, dtype=float))
+        self.lam, self.Wm, self.Wc = merwe_weights(self.n, s.alpha, s.beta, s.kappa)
+        self._c = self.n + self.lam
+        self._wi = float(self.Wm[1])
+        self.x = np.zeros(self.n) if x0 is None else np.array(x0, dtype=float)
+        if p0 is not None:
+            self.P = np.array(p0, dtype=float)
+        elif s.p0_diag:
+            self.P = np.diag(np.asarray(s.p0_diag, dtype=float))
+        else:
+            self.P = np.diag(np.concatenate([s.r_diag, 100.0 * np.asarray(s.q_diag[3:])]))
+        self.jitter_count = 0
+        self.nis = 0.0
+        self._sigmas = np.empty((2 * self.n + 1, self.n))
+
+    def initialize(self, z: FloatArray) -> None:
+        """UKF-I (Eq. 7): start from the first measurement, zero model error."""
+        self.x[:3] = z
+        self.x[3:] = 0.0
+
+    def _sqrt(self, p: FloatArray) -> FloatArray:
+        try:
+            return np.asarray(np.linalg.cholesky(self._c * p), dtype=float)
+        except np.linalg.LinAlgError:
+            jitter = 1e-12 * (float(np.trace(p)) / self.n + 1.0)
+            eye = np.eye(self.n)
+            while True:
+                self.jitter_count += 1
+                try:
+                    return np.asarray(np.linalg.cholesky(self._c * (p + jitter * eye)), dtype=float)
+                except np.linalg.LinAlgError:
+                    jitter *= 2.0
+
+    def sigma_points(self) -> FloatArray:
+        """Eq. 8: x, x + columns of sqrt((n+lambda)P), x - columns; shape (2n+1, n)."""
+        low = self._sqrt(self.P)
+        sig = self._sigmas
+        sig[0] = self.x
+        np.add(self.x, low.T, out=sig[1:7])
+        np.subtract(self.x, low.T, out=sig[7:])
+        return sig
+
+    def predict(self, throttle: float, delta_rad: float, dt_s: float) -> None:
+        """UKF-II/III (Eq. 8-9) with the input held over ``dt_s``."""
+        sig = self.sigma_points()
+        y = sig.copy()
+        y[:, :3] += dt_s * (self.derivative(sig[:, :3], throttle, delta_rad) + sig[:, 3:])
+        d = y[1:] - y[0]
+        mean = y[0] + self._wi * d.sum(axis=0)
+        dev = y - mean
+        p = (dev.T * self.Wc) @ dev + self.Q
+        self.x = mean
+        self.P = 0.5 * (p + p.T)
+
+    def update(self, z: FloatArray) -> None:
+        """UKF-IV (Eq. 10-11), exact for the linear measurement z = nu + noise."""
+        p = self.P
+        s = p[:3, :3] + self.R
+        s_inv = np.linalg.inv(s)
+        k = p[:, :3] @ s_inv
+        innov = np.asarray(z, dtype=float) - self.x[:3]
+        self.x = self.x + k @ innov
+        a = np.eye(self.n)
+        a[:, :3] -= k
+        p = a @ p @ a.T + k @ self.R @ k.T
+        self.P = 0.5 * (p + p.T)
+        self.nis = float(innov @ s_inv @ innov)
+
+    def step(self, z: FloatArray, throttle: float, delta_rad: float, dt_s: float) -> FloatArray:
+        """predict + update; returns the model-error estimate delta_nu."""
+        self.predict(throttle, delta_rad, dt_s)
+        self.update(z)
+        return self.x[3:]
+
+    @property
+    def delta_nu(self) -> FloatArray:
+        return self.x[3:]
+
+
+class QLPVFastUKF(UKF):
+    """The same filter for a :class:`~companion.models.qlpv.QLPVModel`, one compiled step.
+
+    :meth:`step` runs :func:`companion.estimation.ukf_kernel.qlpv_ukf_step` (numba); the
+    numpy :meth:`predict`/:meth:`update` of the base class remain available and give the
+    same numbers (tested).
+    """
+
+    def __init__(self, model: QLPVModel, settings: UKFSettings | None = None,
+                 x0: FloatArray | None = None, p0: FloatArray | None = None) -> None:
+        super().__init__(model.derivative, settings, x0, p0)
+        from companion.estimation.ukf_kernel import qlpv_ukf_step
+
+        self._kernel = qlpv_ukf_step
+        self._theta = np.ascontiguousarray(model.theta)
+        self._c_thrust = float(model.thrust_speed_coeff)
+        self._wc0 = float(self.Wc[0])
+        self._z = np.empty(3)
+
+    def step(self, z: FloatArray, throttle: float, delta_rad: float, dt_s: float) -> FloatArray:
+        self._z[:] = z
+        self.nis, jit = self._kernel(self.x, self.P, self._z, float(throttle), float(delta_rad),
+                                     float(dt_s), self._theta, self._c_thrust, self.Q, self.R, self._wi,
+                                     self._wc0, self._c)
+        self.jitter_count += jit
+        return self.x[3:]
+
+
+def make_ukf(model: LinearInParamsModel, settings: UKFSettings | None = None,
+             x0: FloatArray | None = None) -> UKF:
+    """The fastest available filter for ``model`` (compiled for the qLPV model)."""
+    if isinstance(model, QLPVModel):
+        return QLPVFastUKF(model, settings, x0)
+    return UKF(model.derivative, settings, x0)
