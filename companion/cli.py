@@ -23,6 +23,7 @@ COMMANDS: dict[str, str] = {
     "sim": "sim_bridge.commands",
     "bench": "benchmarks.cli",
     "params": "companion.commands.params",
+    "samples": "companion.commands.samples",
 }
 """Subcommand name -> module implementing it."""
 

@@ -367,7 +367,7 @@ USV_CMD_NAV_LAUNCH_AT = 31000
 enums["USV_CMD"][31000] = EnumEntry("USV_CMD_NAV_LAUNCH_AT", """Mission item (= MAV_CMD_WAYPOINT_USER_1) "fire the rope launcher at a point": go to the point, turn the bow (the launcher is fixed to the hull and throws forward) to the given bearing, stop, fire (all interlocks still apply; the launcher is armed by the mission item itself), continue with the next item.""")
 enums["USV_CMD"][31000].param[1] = """Launch bearing, degrees clockwise from true north. NaN: keep the heading on arrival."""
 enums["USV_CMD"][31000].label[1] = """Bearing"""
-enums["USV_CMD"][31000].param[2] = """Time to hold still on the bearing before firing (0: parameter USV_LNCH_SETTLE_S)."""
+enums["USV_CMD"][31000].param[2] = """Time to hold still on the bearing before firing (0: parameter USV_LNCH_HOLD_S)."""
 enums["USV_CMD"][31000].label[2] = """Hold"""
 enums["USV_CMD"][31000].param[3] = """Empty."""
 enums["USV_CMD"][31000].param[4] = """Empty."""
