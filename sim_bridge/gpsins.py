@@ -1,0 +1,196 @@
+"""Simulated XW-GI5630 GPS-INS (chapter Table 2): noisy measurements and the serial bytes.
+
+Sentence set written on the simulated serial port (one sample = the sentences below, in
+this order; the companion runs one control step per ``$GPFPD``):
+
+``$GTIMU,GPSWeek,GPSTime,GyroX,GyroY,GyroZ,AccX,AccY,AccZ,Tpr*HH``
+    XW-GI raw IMU: gyro deg/s and acceleration in g in the unit's right-forward-up
+    axes (X starboard, Y forward, Z up; so yaw rate clockwise r = -GyroZ), temperature C.
+``$GPFPD,GPSWeek,GPSTime,Heading,Pitch,Roll,Latitude,Longitude,Altitude,Ve,Vn,Vu,Baseline,NSV1,NSV2,Status*HH``
+    XW-GI navigation solution: heading 0..360 deg clockwise from north, pitch/roll deg,
+    latitude/longitude deg, altitude m, east/north/up velocity m/s, antenna baseline m,
+    satellites on antennas 1 and 2, status as two hex digits.  Status bits as used here:
+    0x01 GNSS position, 0x02 GNSS velocity, 0x08 dual-antenna heading (``0B`` = all good,
+    ``00`` = INS only, e.g. during a GNSS outage).
+``$PUSVE,RPM,RUNNING*HH`` (10 Hz)   engine module: shaft speed and running flag.
+``$PUSVP,...`` and ``$PUSVRC,...`` (10 Hz)   payload and RC receiver, see :mod:`sim_bridge.payload`.
+
+Noise (Table 2, 1 sigma): heading 0.2 deg, attitude 0.5 deg, position 2 cm + 1 ppm of
+the distance from the start point (Gauss-Markov, 10 s correlation), velocity 0.1 m/s per
+axis, gyro 0.05 deg/s white plus a seeded bias, gyro range +-100 deg/s.  Update rate
+1, 5, 10 or 100 Hz.  Faults (:class:`SensorFaults`): GNSS outage, silent device,
+corrupted bytes, heading bias, stuck gyro.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
+
+from companion.sensors.nmea import build
+from sim_bridge.plant import PlantState
+
+EARTH_RADIUS_M = 6378137.0
+GPS_EPOCH_UNIX_S = 315964800.0
+GPS_LEAP_S = 18.0
+SUPPORTED_RATES_HZ = (1, 5, 10, 100)
+
+
+@dataclass(slots=True)
+class SensorFaults:
+    """Injectable faults; tests and the harness flip these while the simulation runs."""
+
+    gps_outage: bool = False
+    silent: bool = False
+    corrupt_fraction: float = 0.0
+    heading_bias_deg: float = 0.0
+    gyro_stuck: bool = False
+
+
+@dataclass(frozen=True, slots=True)
+class Measurement:
+    """One GPS-INS sample as the device reports it (noisy)."""
+
+    t_s: float
+    lat_deg: float
+    lon_deg: float
+    heading_deg: float
+    pitch_deg: float
+    roll_deg: float
+    ve_mps: float
+    vn_mps: float
+    gyro_z_degps: float
+    acc_x_g: float
+    acc_y_g: float
+    nsv: int
+    status: int
+    north_m: float
+    east_m: float
+
+    @property
+    def psi_rad(self) -> float:
+        return math.radians(self.heading_deg)
+
+    @property
+    def r_radps(self) -> float:
+        return -math.radians(self.gyro_z_degps)
+
+    @property
+    def u_mps(self) -> float:
+        c, s = math.cos(self.psi_rad), math.sin(self.psi_rad)
+        return c * self.vn_mps + s * self.ve_mps
+
+    @property
+    def v_mps(self) -> float:
+        c, s = math.cos(self.psi_rad), math.sin(self.psi_rad)
+        return -s * self.vn_mps + c * self.ve_mps
+
+
+class GpsInsModel:
+    """Turns the true plant state into noisy measurements and XW-GI sentences."""
+
+    def __init__(self, seed: int, home_lat_deg: float = 41.77, home_lon_deg: float = 123.43,
+                 rate_hz: int = 100, start_unix_s: float = 1.7e9) -> None:
+        if rate_hz not in SUPPORTED_RATES_HZ:
+            raise ValueError(f"GPS-INS rate {rate_hz} Hz not one of {SUPPORTED_RATES_HZ}")
+        self.rng = np.random.default_rng([seed, 0x9125])
+        self.home_lat_deg, self.home_lon_deg = home_lat_deg, home_lon_deg
+        self._m_per_deg_lat = math.radians(1.0) * EARTH_RADIUS_M
+        self._m_per_deg_lon = self._m_per_deg_lat * math.cos(math.radians(home_lat_deg))
+        self.rate_hz = rate_hz
+        self.start_unix_s = start_unix_s
+        self.faults = SensorFaults()
+        self.gyro_bias_degps = float(self.rng.normal(0.0, 0.1))
+        self._pos_err = [0.0, 0.0]
+        self._dr_pos: tuple[float, float] | None = None
+        self._last_gyro = 0.0
+        self._noise: Iterator[float] = iter(())  # pre-drawn standard normals, refilled in blocks (speed)
+        self.samples = 0
+
+    def _n(self) -> float:
+        try:
+            return next(self._noise)
+        except StopIteration:
+            self._noise = iter(self.rng.standard_normal(4096).tolist())
+            return next(self._noise)
+
+    def due(self, step_index: int, step_s: float) -> bool:
+        """Whether a sample is output at this physics step (rate divides 1/step_s)."""
+        every = max(1, round(1.0 / (self.rate_hz * step_s)))
+        return step_index % every == 0
+
+    def measure(self, s: PlantState, dt_s: float) -> Measurement:
+        f = self.faults
+        n = self._n
+        # position: Gauss-Markov error, 2 cm CEP (~1.7 cm per axis) + 1 ppm of range
+        a = math.exp(-dt_s / 10.0)
+        sig = 0.017 + 1e-6 * math.hypot(s.north_m, s.east_m)
+        w = sig * math.sqrt(1.0 - a * a)
+        self._pos_err[0] = a * self._pos_err[0] + w * n()
+        self._pos_err[1] = a * self._pos_err[1] + w * n()
+        vn_true = s.u_mps * math.cos(s.psi_rad) - s.v_mps * math.sin(s.psi_rad)
+        ve_true = s.u_mps * math.sin(s.psi_rad) + s.v_mps * math.cos(s.psi_rad)
+        vn = vn_true + 0.1 * n()
+        ve = ve_true + 0.1 * n()
+        if f.gps_outage:
+            # INS dead reckoning from the last fix: integrates noisy velocity, drifts
+            if self._dr_pos is None:
+                self._dr_pos = (s.north_m + self._pos_err[0], s.east_m + self._pos_err[1])
+            north = self._dr_pos[0] + (vn + 0.05) * dt_s
+            east = self._dr_pos[1] + (ve + 0.05) * dt_s
+            self._dr_pos = (north, east)
+            status, nsv = 0x00, 0
+        else:
+            self._dr_pos = None
+            north, east = s.north_m + self._pos_err[0], s.east_m + self._pos_err[1]
+            status, nsv = 0x0B, 14
+        heading = (math.degrees(s.psi_rad) + 0.2 * n() + f.heading_bias_deg) % 360.0
+        if not f.gyro_stuck:
+            gz = -math.degrees(s.r_radps) + self.gyro_bias_degps + 0.05 * n()
+            self._last_gyro = max(-100.0, min(100.0, gz))
+        g = 9.81
+        acc_x = (s.v_dot_mps2 + s.u_r_mps * s.r_radps) / g + 0.002 * n()
+        acc_y = (s.u_dot_mps2 - s.v_r_mps * s.r_radps) / g + 0.002 * n()
+        self.samples += 1
+        return Measurement(
+            t_s=s.t_s, lat_deg=self.home_lat_deg + north / self._m_per_deg_lat,
+            lon_deg=self.home_lon_deg + east / self._m_per_deg_lon, heading_deg=heading,
+            pitch_deg=0.5 * n(), roll_deg=0.5 * n(), ve_mps=ve, vn_mps=vn,
+            gyro_z_degps=self._last_gyro, acc_x_g=acc_x, acc_y_g=acc_y, nsv=nsv, status=status,
+            north_m=north, east_m=east)
+
+    def gps_time(self, t_s: float) -> tuple[int, float]:
+        """GPS week and seconds of week of simulation time ``t_s``."""
+        gps_s = self.start_unix_s + t_s - GPS_EPOCH_UNIX_S + GPS_LEAP_S
+        week = int(gps_s // 604800.0)
+        return week, gps_s - week * 604800.0
+
+    def sentences(self, m: Measurement) -> tuple[bytes, bytes, str]:
+        """(GTIMU bytes, GPFPD bytes, GPS time string of the sample)."""
+        week, sow = self.gps_time(m.t_s)
+        stamp = f"{sow:.3f}"
+        imu = build(f"GTIMU,{week},{stamp},{n4(0.05 * self._n())},{n4(0.05 * self._n())},"
+                    f"{n4(m.gyro_z_degps)},{n4(m.acc_x_g)},{n4(m.acc_y_g)},1.0000,35.0")
+        fpd = build(f"GPFPD,{week},{stamp},{m.heading_deg:.3f},{m.pitch_deg:.3f},{m.roll_deg:.3f},"
+                    f"{m.lat_deg:.8f},{m.lon_deg:.8f},0.00,{m.ve_mps:.3f},{m.vn_mps:.3f},0.000,"
+                    f"2.000,{m.nsv},{m.nsv},{m.status:02X}")
+        return imu, fpd, stamp
+
+    def corrupt(self, data: bytes) -> bytes:
+        """Flip one byte with probability ``faults.corrupt_fraction`` (checksum then fails)."""
+        if self.faults.corrupt_fraction <= 0.0 or self.rng.random() >= self.faults.corrupt_fraction:
+            return data
+        i = int(self.rng.integers(1, max(2, len(data) - 5)))
+        return data[:i] + bytes([data[i] ^ 0x01]) + data[i + 1:]
+
+
+def n4(x: float) -> str:
+    return f"{x:.4f}"
+
+
+def engine_sentence(rpm: float, running: bool) -> bytes:
+    """``$PUSVE,RPM,RUNNING*HH``: the engine module's tachometer."""
+    return build(f"PUSVE,{rpm:.0f},{1 if running else 0}")
