@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from companion.control.actuator import Saturation
+from companion.control.pid import LowPass
 from companion.control.pid_family import HeadingLoopConfig, desired_turn_rate
 from companion.control.target import ControlOutput, ControlTarget, CrabEstimator
 from companion.guidance.geo import wrap_pi
@@ -52,7 +53,10 @@ class ActiveModelConfig:
     accel_max_mps2: float = 1.5
     decel_max_mps2: float = 1.0
     compensate_model_error: bool = True
-    nozzle_max_rad: float = math.radians(30.0)
+    model_error_tau_s: float = 1.0
+    """Low-pass time constant on delta_nu: compensate wind, drift and model mismatch, but do not
+    chase first-order wave forces (wave filtering, Fossen 2021 ch. 13)."""
+    nozzle_max_rad: float = math.radians(60.0)
     min_thrust: float = 0.0025
     """Smallest normalised thrust the law asks for, so the nozzle keeps some authority."""
 
@@ -80,18 +84,19 @@ class ActiveModelController:
         if self._b_u <= 0 or self._b_r == 0:
             raise ValueError(f"model {model.name!r} has no surge/yaw control authority (B = {b.tolist()})")
         self.last_delta_nu = (0.0, 0.0, 0.0)
+        self._dnu_lp = [LowPass(self.cfg.model_error_tau_s, 0.0) for _ in range(3)]
 
     def reset(self, nav: NavState) -> None:
         self.crab.reset()
 
-    def _dnu(self) -> tuple[float, float, float]:
+    def _dnu(self, dt_s: float) -> tuple[float, float, float]:
         if not self.cfg.compensate_model_error or self.delta_nu_source is None:
             return (0.0, 0.0, 0.0)
         dn = self.delta_nu_source()
-        if dn is None or not all(math.isfinite(x) for x in dn):
-            return self.last_delta_nu
-        self.last_delta_nu = dn
-        return dn
+        if dn is not None and all(math.isfinite(x) for x in dn):
+            lp = self._dnu_lp
+            self.last_delta_nu = (lp[0].step(dn[0], dt_s), lp[1].step(dn[1], dt_s), lp[2].step(dn[2], dt_s))
+        return self.last_delta_nu
 
     def update(self, nav: NavState, target: ControlTarget, dt_s: float, sat: Saturation) -> ControlOutput:
         c = self.cfg
@@ -101,7 +106,7 @@ class ActiveModelController:
         r_d = desired_turn_rate(c.heading, e_psi, target.course_rate_radps)
         nu = np.array([nav.u_mps, nav.v_mps, nav.r_radps])
         f = self.model.a_of_nu(nu) @ nu
-        dnu = self._dnu()
+        dnu = self._dnu(dt_s)
         r_dot_d = c.rate_k_per_s * (r_d - nav.r_radps)
         u_dot_d = c.speed_k_per_s * (target.speed_mps - nav.u_mps)
         u_dot_d = min(c.accel_max_mps2, max(-c.decel_max_mps2, u_dot_d))

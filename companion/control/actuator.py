@@ -18,7 +18,7 @@ from companion.control.pid import RateLimiter
 
 @dataclass(frozen=True, slots=True)
 class ActuatorLimits:
-    nozzle_max_rad: float = math.radians(30.0)
+    nozzle_max_rad: float = math.radians(60.0)
     nozzle_rate_radps: float = math.radians(120.0)
     throttle_min: float = 0.0
     throttle_max: float = 1.0

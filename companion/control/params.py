@@ -24,7 +24,7 @@ PARAMS: tuple[ParamDef, ...] = (
              is_int=True, choices=((CTRL_PID, "PID"), (CTRL_ACTIVE_MODEL, "ActiveModel"))),
     ParamDef("USV_HDG_P", 1.2, 0.1, 5.0, "1/s",
              "Heading loop: desired turn rate per radian of heading error."),
-    ParamDef("USV_TURN_MAX", 35.0, 5.0, 120.0, "deg/s", "Largest turn rate the heading loop asks for."),
+    ParamDef("USV_TURN_MAX", 45.0, 5.0, 120.0, "deg/s", "Largest turn rate the heading loop asks for."),
     ParamDef("USV_CRAB_TC", 0.5, 0.0, 10.0, "s",
              "Time constant of the crab-angle (course minus heading) filter used to steer a course."),
     ParamDef("USV_RATE_FF", 0.8, 0.0, 5.0, "rad/(rad/s)", "PID: nozzle angle per turn rate (feed-forward)."),
@@ -46,7 +46,9 @@ PARAMS: tuple[ParamDef, ...] = (
     ParamDef("USV_AM_DNU", 1, 0, 1, "",
              "Active model: compensate the UKF model-error estimate delta_nu (1) or run the nominal law "
              "alone (0).", is_int=True, choices=((0, "Off"), (1, "On"))),
-    ParamDef("USV_NOZ_MAX", 30.0, 5.0, 60.0, "deg", "Largest nozzle deflection either side."),
+    ParamDef("USV_AM_DNU_TC", 1.0, 0.0, 10.0, "s",
+             "Active model: low-pass time constant on delta_nu (wave filtering: do not chase wave forces)."),
+    ParamDef("USV_NOZ_MAX", 60.0, 5.0, 60.0, "deg", "Largest nozzle deflection either side."),
     ParamDef("USV_NOZ_RATE", 120.0, 10.0, 720.0, "deg/s", "Nozzle servo slew rate."),
     ParamDef("USV_THR_RATE", 100.0, 5.0, 1000.0, "%/s", "Throttle slew rate."),
 )
@@ -84,4 +86,5 @@ def active_model_config(p: ParamReader) -> ActiveModelConfig:
                              speed_k_per_s=p.get("USV_AM_SPD_K"), accel_max_mps2=p.get("USV_AM_ACC_MAX"),
                              decel_max_mps2=p.get("USV_AM_DEC_MAX"),
                              compensate_model_error=bool(p.get("USV_AM_DNU")),
+                             model_error_tau_s=p.get("USV_AM_DNU_TC"),
                              nozzle_max_rad=math.radians(p.get("USV_NOZ_MAX")))

@@ -25,9 +25,9 @@ from companion.messages import NavState
 class HeadingLoopConfig:
     """Outer heading loop shared by both controller families."""
 
-    heading_p_per_s: float = 1.0
+    heading_p_per_s: float = 1.2
     """Desired turn rate per radian of heading error (1/s)."""
-    turn_rate_max_radps: float = math.radians(30.0)
+    turn_rate_max_radps: float = math.radians(45.0)
     crab_tau_s: float = 0.5
 
 
@@ -54,7 +54,7 @@ class PidConfig:
     cruise_throttle: float = 0.5
     """Throttle that holds ``cruise_speed_mps`` in calm water (feed-forward)."""
     cruise_speed_mps: float = 5.0
-    nozzle_max_rad: float = math.radians(30.0)
+    nozzle_max_rad: float = math.radians(60.0)
 
 
 class PidController:

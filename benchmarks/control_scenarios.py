@@ -1,0 +1,156 @@
+"""The control figures of issue 6, measured on the simulated plant for one controller family.
+
+Each scenario returns a dict of measured figures; :mod:`benchmarks.control` runs them for both
+controller families with the same plant and seeds and prints them side by side.  Definitions:
+
+- course keeping: 5 m/s, 3 m/s wind, waves Hs 0.3 m; a 90 degree heading step.  Overshoot is
+  the largest excursion past the new heading; steady RMS is over the windows before the step and
+  from 15 s after it.
+- speed: a 2 -> 6 m/s step in the same weather; overshoot in percent of the step size, steady
+  RMS of the surge speed over ground from 15 s after the step.
+- path following: a 50 m square at 5 m/s with 0.5 m/s current across the north-south legs,
+  3 m/s wind and waves.  Cross-track error is the distance to the square; "mid-leg" keeps the
+  samples 10 m after each leg start to 10 m before its end.
+- point tracking (chapter Fig. 12-13): four sampling points, each circled at the commanded radius
+  for ``sample_s`` with 0.3 m/s current; sampling starts 10 s after the boat first reaches the
+  circle.  Radial error is |distance - radius|; also the largest distance from the point.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from benchmarks.control_rig import Environment, Rig
+from companion.control.target import ControlTarget
+from companion.guidance.circle import CircleTracker
+from companion.guidance.geo import wrap_pi
+from companion.guidance.los import LosFollower, LosType
+from companion.guidance.params import circle_gains, los_gains
+from companion.guidance.waypoints import LegConfig, LegNavigator
+from companion.models.qlpv import QLPVModel
+
+WEATHER = {"wind_mps": 3.0, "wind_from_deg": 45.0, "waves_hs_m": 0.3}
+
+
+def _rms(x: list[float]) -> float:
+    return float(np.sqrt(np.mean(np.square(x)))) if x else float("nan")
+
+
+def course_keeping(ctrl_type: int, model: QLPVModel, seed: int, quick: bool = False) -> dict[str, Any]:
+    rig = Rig(ctrl_type, Environment(seed=seed, **WEATHER), model)
+    hold_s = 10.0 if quick else 20.0
+    target = ControlTarget(0.0, 5.0, is_heading=True)
+    for _ in range(int(25.0 / 0.01)):
+        rig.step(target)
+    steady: list[float] = []
+    for _ in range(int(hold_s / 0.01)):
+        steady.append(math.degrees(wrap_pi(rig.step(target).heading_rad)))
+    target = ControlTarget(math.pi / 2, 5.0, is_heading=True)
+    after: list[float] = []
+    for _ in range(int((15.0 + hold_s) / 0.01)):
+        after.append(math.degrees(wrap_pi(rig.step(target).heading_rad - math.pi / 2)))
+    n15 = int(15.0 / 0.01)
+    settle = next((i * 0.01 for i in range(len(after)) if all(abs(e) < 2.0 for e in after[i:n15])), None)
+    return {"overshoot_deg": round(max(0.0, max(after)), 2),
+            "steady_rms_deg": round(_rms(steady + after[n15:]), 3),
+            "settling_2deg_s": None if settle is None else round(settle, 2)}
+
+
+def speed_step(ctrl_type: int, model: QLPVModel, seed: int, quick: bool = False) -> dict[str, Any]:
+    rig = Rig(ctrl_type, Environment(seed=seed, **WEATHER), model)
+    hold_s = 10.0 if quick else 20.0
+    for _ in range(int(25.0 / 0.01)):
+        rig.step(ControlTarget(0.0, 2.0, is_heading=True))
+    target = ControlTarget(0.0, 6.0, is_heading=True)
+    speeds = [rig.step(target).u_mps for _ in range(int((15.0 + hold_s) / 0.01))]
+    n15 = int(15.0 / 0.01)
+    rise = next((i * 0.01 for i, u in enumerate(speeds) if u >= 2.0 + 0.9 * 4.0), None)
+    return {"overshoot_pct": round(max(0.0, (max(speeds) - 6.0) / 4.0 * 100.0), 2),
+            "steady_rms_mps": round(_rms([u - 6.0 for u in speeds[n15:]]), 4),
+            "rise_10_90_s": None if rise is None else round(rise, 2)}
+
+
+def _dist_to_segment(p: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
+    ax, ay = b[0] - a[0], b[1] - a[1]
+    t = max(0.0, min(1.0, ((p[0] - a[0]) * ax + (p[1] - a[1]) * ay) / (ax * ax + ay * ay)))
+    return math.hypot(p[0] - a[0] - t * ax, p[1] - a[1] - t * ay)
+
+
+def square(ctrl_type: int, model: QLPVModel, seed: int, quick: bool = False) -> dict[str, Any]:
+    env = Environment(seed=seed, current_mps=0.5, current_toward_deg=90.0, **WEATHER)
+    rig = Rig(ctrl_type, env, model)
+    side = 50.0
+    corners = [(0.0, 0.0), (side, 0.0), (side, side), (0.0, side), (0.0, 0.0)]
+    route = [(-30.0, 0.0), *corners, (side, 0.0)] if not quick else [(-30.0, 0.0), *corners[:3], (side, 10.0)]
+    p = rig.params
+    nav_leg = LegNavigator(LosFollower(los_gains(p), LosType(int(p.get("USV_LOS_TYPE")))),
+                           LegConfig(speed_mps=5.0, accept_radius_m=2.0,
+                                     turn_rate_max_radps=math.radians(p.get("USV_TURN_MAX"))))
+    legs = list(range(len(route) - 1))
+    scored_legs = [(corners[i], corners[i + 1]) for i in range(len(corners) - 1)]
+    mid: list[float] = []
+    whole: list[float] = []
+    started = False
+    for i in legs:
+        nxt = route[i + 2] if i + 2 < len(route) else None
+        nav_leg.set_leg(route[i], route[i + 1], nxt)
+        for _ in range(int(60.0 / 0.01)):
+            nav = rig.nav()
+            pos = rig.pos_ne()
+            st = nav_leg.update(pos, nav.speed_over_ground_mps, 0.01)
+            if st.reached:
+                break
+            rig.step(st.target)
+            if i >= 1 and (i - 1) < len(scored_legs) and route[i] == scored_legs[i - 1][0] and \
+                    route[i + 1] == scored_legs[i - 1][1]:
+                started = True
+                if 10.0 <= st.errors.along_m <= st.errors.leg_length_m - 10.0:
+                    mid.append(abs(st.errors.cross_m))
+            if started:
+                whole.append(min(_dist_to_segment(pos, a, b) for a, b in scored_legs))
+        if i >= len(scored_legs):
+            break
+    return {"mid_leg_rms_m": round(_rms(mid), 3), "mid_leg_max_m": round(max(mid), 3),
+            "whole_rms_m": round(_rms(whole), 3), "whole_max_m": round(max(whole), 3),
+            "duration_s": round(rig.t_s, 1)}
+
+
+def point_tracking(ctrl_type: int, model: QLPVModel, seed: int, quick: bool = False,
+                   radius_m: float | None = None, speed_mps: float | None = None,
+                   sample_s: float = 40.0) -> dict[str, Any]:
+    env = Environment(seed=seed, current_mps=0.3, current_toward_deg=30.0)
+    rig = Rig(ctrl_type, env, model)
+    p = rig.params
+    radius = radius_m if radius_m is not None else p.get("USV_TURN_RAD")
+    speed = speed_mps if speed_mps is not None else p.get("USV_CIRC_SPD")
+    points = [(30.0, 0.0), (30.0, 30.0), (0.0, 30.0), (0.0, 0.0)][: 2 if quick else 4]
+    per_point: list[dict[str, float]] = []
+    for centre in points:
+        tracker = CircleTracker(centre, radius, clockwise=True, gains=circle_gains(p))
+        t_capture: float | None = None
+        radial: list[float] = []
+        dist: list[float] = []
+        for _ in range(int((90.0 + sample_s) / 0.01)):
+            nav = rig.nav()
+            out = tracker.update(rig.pos_ne(), nav.speed_over_ground_mps, 0.01)
+            far = out.distance_m > radius + 10.0
+            rig.step(ControlTarget(out.course_rad, 3.0 if far else speed, out.course_rate_radps))
+            if t_capture is None and out.distance_m <= radius + 0.5:
+                t_capture = rig.t_s
+            if t_capture is not None and rig.t_s >= t_capture + 10.0:
+                radial.append(abs(out.radial_error_m))
+                dist.append(out.distance_m)
+                if rig.t_s >= t_capture + 10.0 + sample_s:
+                    break
+        per_point.append({"radial_max_m": max(radial) if radial else float("nan"),
+                          "radial_rms_m": _rms(radial), "dist_max_m": max(dist) if dist else float("nan")})
+    return {"radius_m": radius, "speed_mps": speed,
+            "radial_max_m": round(max(pp["radial_max_m"] for pp in per_point), 3),
+            "radial_rms_m": round(float(np.mean([pp["radial_rms_m"] for pp in per_point])), 3),
+            "dist_max_m": round(max(pp["dist_max_m"] for pp in per_point), 3)}
+
+
+SCENARIOS = {"course": course_keeping, "speed": speed_step, "square": square, "points": point_tracking}

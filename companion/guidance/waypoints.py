@@ -1,0 +1,93 @@
+"""Waypoint path following: legs between consecutive points, switching, and corner slow-down.
+
+A :class:`LegNavigator` follows the straight leg from the previous waypoint to the current one
+with :class:`~companion.guidance.los.LosFollower` (ILOS/ALOS) and reports when the waypoint is
+reached.  Reaching uses the acceptance radius (ArduPilot WP_RADIUS) *or* passing the end of the
+leg (along-track beyond its length), so a boat pushed wide by current never circles back for a
+waypoint.  Before a corner it slows to ``turn_speed_mps`` so that the turn radius (U / r_max)
+keeps the corner cut small, and it switches to the next leg one turn radius early (turn
+anticipation) so that the turn is an arc tangent to both legs.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+from companion.control.target import ControlTarget
+from companion.guidance.geo import wrap_pi
+from companion.guidance.los import LegErrors, LosFollower
+
+Point = tuple[float, float]
+
+
+@dataclass(frozen=True, slots=True)
+class LegConfig:
+    speed_mps: float = 5.0
+    accept_radius_m: float = 2.0
+    turn_speed_mps: float = 2.5
+    """Speed through corners of more than ``sharp_turn_rad``."""
+    sharp_turn_rad: float = math.radians(30.0)
+    turn_rate_max_radps: float = math.radians(45.0)
+    decel_mps2: float = 0.6
+    """Planned deceleration before a corner (sets where slowing starts)."""
+
+
+@dataclass(frozen=True, slots=True)
+class LegStep:
+    target: ControlTarget
+    errors: LegErrors
+    reached: bool
+
+
+def turn_angle_rad(p0: Point, p1: Point, p2: Point) -> float:
+    """Absolute change of path angle at ``p1`` when going p0 -> p1 -> p2."""
+    a = math.atan2(p1[1] - p0[1], p1[0] - p0[0])
+    b = math.atan2(p2[1] - p1[1], p2[0] - p1[0])
+    return abs(wrap_pi(b - a))
+
+
+class LegNavigator:
+    """Follow ``start -> end``; ``next_point`` (if any) is used for corner slow-down/anticipation."""
+
+    def __init__(self, los: LosFollower, cfg: LegConfig) -> None:
+        self.los = los
+        self.cfg = cfg
+        self.start: Point = (0.0, 0.0)
+        self.end: Point = (0.0, 0.0)
+        self.next_point: Point | None = None
+
+    def set_leg(self, start: Point, end: Point, next_point: Point | None = None,
+                speed_mps: float | None = None) -> None:
+        self.start, self.end, self.next_point = start, end, next_point
+        if speed_mps is not None:
+            self.cfg = replace(self.cfg, speed_mps=speed_mps)
+        self.los.set_leg(start, end)
+
+    def _corner(self) -> tuple[float, float]:
+        """(speed through the coming corner, anticipation distance before it)."""
+        c = self.cfg
+        if self.next_point is None:
+            return c.speed_mps, 0.0
+        turn = turn_angle_rad(self.start, self.end, self.next_point)
+        if turn < c.sharp_turn_rad:
+            return c.speed_mps, 0.0
+        v = min(c.speed_mps, c.turn_speed_mps)
+        radius = v / c.turn_rate_max_radps
+        return v, radius * math.tan(0.5 * min(turn, math.radians(150.0)))
+
+    def update(self, pos_ne: Point, speed_mps: float, dt_s: float) -> LegStep:
+        c = self.cfg
+        out = self.los.update(pos_ne, speed_mps, dt_s)
+        err = out.errors
+        remaining = err.remaining_m
+        v_corner, lead = self._corner()
+        if self.next_point is None:
+            # last point: slow to arrive (the caller decides what happens there)
+            v_corner, lead = min(c.speed_mps, c.turn_speed_mps), 0.0
+        # v^2 = v_corner^2 + 2 a d  (constant-deceleration profile up to the corner)
+        v_brake = math.sqrt(v_corner**2 + 2.0 * c.decel_mps2 * max(0.0, remaining - lead))
+        speed = min(c.speed_mps, v_brake)
+        dist_end = math.hypot(pos_ne[0] - self.end[0], pos_ne[1] - self.end[1])
+        reached = remaining <= lead or dist_end <= c.accept_radius_m
+        return LegStep(ControlTarget(out.course_rad, speed, out.course_rate_radps), err, reached)
