@@ -69,4 +69,7 @@ class ReadyBanner(BaseService):
 def build_companion_services(ctx: Context) -> list[Service]:
     """The companion's services in start-up order."""
     services: list[Service] = []
+    from companion.payloads.service import PayloadService  # rope launcher, water sampler
+
+    services.append(PayloadService(ctx))
     return services
