@@ -22,8 +22,9 @@ CORE_PARAMS: tuple[ParamDef, ...] = (
 
 def all_param_defs() -> tuple[ParamDef, ...]:
     """Every parameter of the product, in param_index order."""
+    from companion.actuators.params import PARAMS as ACTUATOR_PARAMS
     from companion.control.params import PARAMS as CONTROL_PARAMS
     from companion.guidance.params import PARAMS as GUIDANCE_PARAMS
     from companion.payloads.params import PARAMS as PAYLOAD_PARAMS
 
-    return CORE_PARAMS + GUIDANCE_PARAMS + CONTROL_PARAMS + PAYLOAD_PARAMS
+    return CORE_PARAMS + GUIDANCE_PARAMS + CONTROL_PARAMS + PAYLOAD_PARAMS + ACTUATOR_PARAMS

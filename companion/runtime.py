@@ -72,4 +72,7 @@ def build_companion_services(ctx: Context) -> list[Service]:
     from companion.payloads.service import PayloadService  # rope launcher, water sampler
 
     services.append(PayloadService(ctx))
+    from companion.loop import build_hardware_services  # GPS-INS parser, control loop, servo output
+
+    services += build_hardware_services(ctx)  # last: every stage is registered before samples flow
     return services

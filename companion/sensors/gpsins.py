@@ -1,0 +1,110 @@
+"""Parser of the GPS-INS serial stream (XW-GI5630 sentence set, see :mod:`sim_bridge.gpsins`).
+
+Sentences understood (NMEA framing and XOR checksum, :mod:`companion.sensors.nmea`):
+
+* ``$GTIMU,GPSWeek,GPSTime,GyroX,GyroY,GyroZ,AccX,AccY,AccZ,Tpr`` (deg/s, g; right-forward-up
+  axes, so the clockwise yaw rate r = -GyroZ) -> kept for the next ``$GPFPD``;
+* ``$GPFPD,GPSWeek,GPSTime,Heading,Pitch,Roll,Lat,Lon,Alt,Ve,Vn,Vu,Baseline,NSV1,NSV2,Status``
+  -> one :class:`~companion.messages.NavState` (body velocities u, v from Ve/Vn and heading);
+* ``$PUSVE,RPM,RUNNING`` -> :class:`~companion.messages.EngineState` on ``engine``;
+* ``$PUSVP,PRESSURE_MPA,SHOTS,ML1,ML2,ML3,ML4,PUMP,VALVE`` -> ``payload_sensors``;
+* ``$PUSVRC,SOURCE,CH1..CH8`` -> :class:`~companion.messages.RcInput` on ``rc_in``.
+
+Bad checksums, garbage and malformed fields are counted in :attr:`GpsInsParser.errors`
+and dropped; nothing raises.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+from companion.bus import Bus
+from companion.clock import Clock
+from companion.messages import ControlSource, EngineState, FixType, NavState, RcInput
+from companion.sensors.nmea import LineFramer
+
+NavCallback = Callable[[NavState, str], object]
+"""Called with each navigation sample and its GPS time field (the lockstep ACK)."""
+
+
+class GpsInsParser:
+    """Feeds bytes, publishes engine/payload/RC messages, hands nav samples to ``on_nav``."""
+
+    def __init__(self, clock: Clock, bus: Bus, on_nav: NavCallback) -> None:
+        from companion.payloads.topics import PAYLOAD_SENSORS_TOPIC, PayloadSensors
+
+        self.clock = clock
+        self.on_nav = on_nav
+        self.framer = LineFramer()
+        self.field_errors = 0
+        self.nav_samples = 0
+        self._gyro_z_degps = 0.0
+        self._engine = bus.topic("engine", EngineState)
+        self._rc = bus.topic("rc_in", RcInput)
+        self._payload = bus.topic(PAYLOAD_SENSORS_TOPIC, PayloadSensors)
+        self._payload_type = PayloadSensors
+        self._handlers: dict[str, Callable[[list[str]], None]] = {
+            "GPFPD": self._gpfpd, "GTIMU": self._gtimu, "PUSVE": self._pusve,
+            "PUSVP": self._pusvp, "PUSVRC": self._pusvrc,
+        }
+
+    @property
+    def errors(self) -> int:
+        return self.framer.stats.errors + self.field_errors
+
+    def feed(self, data: bytes) -> None:
+        for body in self.framer.feed(data):
+            fields = body.split(",")
+            handler = self._handlers.get(fields[0])
+            if handler is None:
+                continue  # other sentences (GGA, RMC ...) are not needed
+            try:
+                handler(fields)
+            except (ValueError, IndexError):
+                self.field_errors += 1
+
+    def _gtimu(self, f: list[str]) -> None:
+        if len(f) != 10:
+            raise ValueError("GTIMU field count")
+        self._gyro_z_degps = float(f[5])
+
+    def _gpfpd(self, f: list[str]) -> None:
+        if len(f) != 16:
+            raise ValueError("GPFPD field count")
+        heading = math.radians(float(f[3]))
+        if not (0.0 <= heading <= 2.0 * math.pi + 1e-9):
+            raise ValueError("heading out of range")
+        ve, vn = float(f[9]), float(f[10])
+        lat, lon = float(f[6]), float(f[7])
+        if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
+            raise ValueError("position out of range")
+        status = int(f[15], 16)
+        gnss_ok = bool(status & 0x01)
+        c, s = math.cos(heading), math.sin(heading)
+        nav = NavState(
+            t_s=self.clock.now_s(), lat_deg=lat, lon_deg=lon, alt_m=float(f[8]),
+            heading_rad=heading % (2.0 * math.pi), roll_rad=math.radians(float(f[5])),
+            pitch_rad=math.radians(float(f[4])), vel_north_mps=vn, vel_east_mps=ve,
+            u_mps=c * vn + s * ve, v_mps=-s * vn + c * ve, r_radps=-math.radians(self._gyro_z_degps),
+            fix_type=FixType.FIX_3D if gnss_ok else FixType.NO_FIX,
+            satellites=int(f[13]), position_valid=gnss_ok, attitude_valid=True)
+        self.nav_samples += 1
+        self.on_nav(nav, f[2])
+
+    def _pusve(self, f: list[str]) -> None:
+        self._engine.publish(EngineState(t_s=self.clock.now_s(), rpm=float(f[1]), running=f[2] == "1"))
+
+    def _pusvp(self, f: list[str]) -> None:
+        if len(f) != 9:
+            raise ValueError("PUSVP field count")
+        self._payload.publish(self._payload_type(
+            t_s=self.clock.now_s(), cylinder_pressure_mpa=float(f[1]),
+            bottle_volume_ml=tuple(float(x) for x in f[3:7])))
+
+    def _pusvrc(self, f: list[str]) -> None:
+        if len(f) != 10:
+            raise ValueError("PUSVRC field count")
+        source = ControlSource.COMPANION if f[1] == "1" else ControlSource.RC
+        self._rc.publish(RcInput(t_s=self.clock.now_s(), channels_us=tuple(int(x) for x in f[2:]),
+                                 source=source))

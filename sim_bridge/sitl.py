@@ -1,0 +1,190 @@
+"""SitlHarness: the simulated boat and the companion in one process, for tests and tools.
+
+Usage::
+
+    async with SitlHarness(seed=1, wind="5,270") as h:
+        cmd = h.ctx.bus.topic("actuator_cmd", ActuatorCommand)
+        h.loop.add_stage("my-controller", lambda nav: cmd.publish(
+            ActuatorCommand(nav.t_s, throttle=0.5, ignition_on=True)))
+        await h.run_for(20.0)                 # 20 s of simulated time, lockstep, as fast as possible
+        print(h.plant.state.u_mps)
+        h.faults.gps_outage = True            # inject a GNSS outage (also: silent, corrupt_fraction ...)
+        h.rc.override = True                  # put the boat under RC control
+        h.launcher.events, h.sampler.bottles_ml, h.launcher.buoys
+
+It builds a :class:`~companion.clock.SimClock`, a companion :class:`~companion.app.Context`
+(state in a temporary directory unless ``state_dir`` is given), the :class:`SimulatedBoat`
+and two byte links (``transport="memory"``: in-memory pipes, synchronous and fastest;
+``"pty"``: real pseudo-terminals read by pyserial, as on the boat).  The companion side is
+the hardware seam (GPS-INS parser, :class:`~companion.loop.ControlLoop`, servo output) or,
+with ``full_stack=True``, every service of :func:`companion.runtime.build_companion_services`.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import math
+import shutil
+import tempfile
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+from companion.app import Context, Service
+from companion.clock import SimClock
+from companion.config import Config, default_config
+from companion.loop import (
+    GNSS_LINK_KEY,
+    SERVO_LINK_KEY,
+    ControlLoop,
+    build_hardware_services,
+    get_control_loop,
+)
+from companion.runtime import build_context
+from companion.transport import ByteLink, SerialLink, memory_pipe
+from sim_bridge.disturbances import spec_from_strings
+from sim_bridge.gpsins import SensorFaults
+from sim_bridge.hull import BoatParams
+from sim_bridge.lockstep import Lockstep
+from sim_bridge.payload import Launcher, RcTransmitter, Sampler
+from sim_bridge.plant import BoatPlant
+from sim_bridge.ptyport import PtyPort
+from sim_bridge.simboat import SimulatedBoat
+
+START_UNIX_S = 1_700_000_000.0
+
+
+class _Tee:
+    """Sim-side link that is the GNSS writer and the servo reader at once (two underlying links)."""
+
+    def __init__(self, out: ByteLink, inp: ByteLink) -> None:
+        self.name, self.stats = "sim", out.stats
+        self.out, self.inp = out, inp
+
+    def set_receiver(self, receiver: Any) -> None:
+        self.inp.set_receiver(receiver)
+
+    def write(self, data: bytes) -> None:
+        self.out.write(data)
+
+    async def open(self) -> None:
+        await self.out.open()
+        if self.inp is not self.out:
+            await self.inp.open()
+
+    async def close(self) -> None:
+        await self.out.close()
+        if self.inp is not self.out:
+            await self.inp.close()
+
+
+class SitlHarness:
+    def __init__(self, *, seed: int = 1, wind: str = "0,0", current: str = "0,0", waves: str = "0",
+                 payload_kg: float = 0.0, gnss_rate_hz: int = 100, psi0_deg: float = 0.0,
+                 home: tuple[float, float] = (41.77, 123.43), full_stack: bool = False,
+                 transport: str = "memory", config: Config | None = None,
+                 params: dict[str, float] | None = None, state_dir: Path | None = None,
+                 speedup: float = 0.0) -> None:
+        if transport not in ("memory", "pty"):
+            raise ValueError(f"transport must be 'memory' or 'pty', not {transport!r}")
+        self._tmp: str | None = None
+        if state_dir is None:
+            self._tmp = tempfile.mkdtemp(prefix="usv-sitl-")
+            state_dir = Path(self._tmp)
+        base = config or default_config()
+        self.config = base.with_overrides({"vehicle.state_dir": str(state_dir), "sim.seed": seed,
+                                           "sim.wind": wind, "sim.current": current, "sim.waves": waves})
+        self.clock = SimClock(start_unix_time_s=START_UNIX_S)
+        self.ctx: Context = build_context(self.config, self.clock)
+        for name, value in (params or {}).items():
+            self.ctx.params.set(name, value, persist=False)
+        self.boat = SimulatedBoat(seed=seed, disturbances=spec_from_strings(wind, current, waves),
+                                  params=BoatParams().with_payload(payload_kg), home_lat_deg=home[0],
+                                  home_lon_deg=home[1], psi0_rad=math.radians(psi0_deg),
+                                  gnss_rate_hz=gnss_rate_hz, start_unix_s=START_UNIX_S)
+        self.transport = transport
+        self.full_stack = full_stack
+        self.speedup = speedup
+        self.loop: ControlLoop = get_control_loop(self.ctx)
+        self.services: list[Service] = []
+        self._tasks: list[asyncio.Task[None]] = []
+        self._sim_link: ByteLink | None = None
+        self.lockstep: Lockstep | None = None
+
+    # -- what tests use -------------------------------------------------------------------
+    @property
+    def plant(self) -> BoatPlant:
+        return self.boat.plant
+
+    @property
+    def faults(self) -> SensorFaults:
+        return self.boat.faults
+
+    @property
+    def launcher(self) -> Launcher:
+        return self.boat.launcher
+
+    @property
+    def sampler(self) -> Sampler:
+        return self.boat.sampler
+
+    @property
+    def rc(self) -> RcTransmitter:
+        return self.boat.rc
+
+    async def run_for(self, sim_seconds: float) -> None:
+        """Advance ``sim_seconds`` of simulated time in lockstep (as fast as possible)."""
+        assert self.lockstep is not None, "use 'async with SitlHarness() as h'"
+        await self.lockstep.run_for(sim_seconds)
+        for task in self._tasks:
+            if task.done() and not task.cancelled() and task.exception() is not None:
+                raise RuntimeError(f"service {task.get_name()} crashed") from task.exception()
+
+    # -- life cycle -----------------------------------------------------------------------
+    async def __aenter__(self) -> SitlHarness:
+        if self.transport == "memory":
+            sim_gnss, comp_gnss = memory_pipe("sim-gnss", "companion-gnss")
+            sim_servo, comp_servo = memory_pipe("sim-servo", "companion-servo")
+            self.ctx.extras[GNSS_LINK_KEY] = comp_gnss
+            self.ctx.extras[SERVO_LINK_KEY] = comp_servo
+            gnss_out: ByteLink = sim_gnss
+            servo_in: ByteLink = sim_servo
+        else:
+            gnss_pty, servo_pty = PtyPort("sim-gnss"), PtyPort("sim-servo")
+            self.ctx.extras[GNSS_LINK_KEY] = SerialLink(gnss_pty.path, 115200, self.clock)
+            self.ctx.extras[SERVO_LINK_KEY] = SerialLink(servo_pty.path, 115200, self.clock)
+            gnss_out, servo_in = gnss_pty, servo_pty
+        self._sim_link = _Tee(gnss_out, servo_in)
+        await self._sim_link.open()
+        self.lockstep = Lockstep(self.boat, self.clock, self._sim_link, speedup=self.speedup)
+        if self.full_stack:
+            from companion.runtime import build_companion_services
+
+            self.services = build_companion_services(self.ctx)
+            if not any(s.name == "hardware-io" for s in self.services):
+                self.services = build_hardware_services(self.ctx) + self.services
+        else:
+            self.services = build_hardware_services(self.ctx)
+        try:
+            for service in self.services:
+                await service.start()
+                self._tasks.append(asyncio.create_task(service.run(), name=service.name))
+        except BaseException:
+            await self.__aexit__(None, None, None)
+            raise
+        return self
+
+    async def __aexit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                        tb: TracebackType | None) -> None:
+        for task in reversed(self._tasks):
+            task.cancel()
+            with contextlib.suppress(asyncio.CancelledError, Exception):
+                await task
+        for service in reversed(self.services):
+            with contextlib.suppress(Exception):
+                await service.stop()
+        if self._sim_link is not None:
+            await self._sim_link.close()
+        if self._tmp is not None:
+            shutil.rmtree(self._tmp, ignore_errors=True)
