@@ -100,7 +100,8 @@ def square(ctrl_type: int, model: QLPVModel, seed: int, quick: bool = False) -> 
         for _ in range(int(60.0 / 0.01)):
             nav = rig.nav()
             pos = rig.pos_ne()
-            st = nav_leg.update(pos, nav.speed_over_ground_mps, 0.01)
+            cog = math.atan2(nav.vel_east_mps, nav.vel_north_mps)
+            st = nav_leg.update(pos, nav.speed_over_ground_mps, 0.01, cog)
             if st.reached:
                 break
             rig.step(st.target)

@@ -29,7 +29,7 @@ class LegConfig:
     """Speed through corners of more than ``sharp_turn_rad``."""
     sharp_turn_rad: float = math.radians(30.0)
     turn_rate_max_radps: float = math.radians(45.0)
-    decel_mps2: float = 0.6
+    decel_mps2: float = 0.4
     """Planned deceleration before a corner (sets where slowing starts)."""
 
 
@@ -76,7 +76,10 @@ class LegNavigator:
         radius = v / c.turn_rate_max_radps
         return v, radius * math.tan(0.5 * min(turn, math.radians(150.0)))
 
-    def update(self, pos_ne: Point, speed_mps: float, dt_s: float) -> LegStep:
+    def update(self, pos_ne: Point, speed_mps: float, dt_s: float,
+               course_rad: float | None = None) -> LegStep:
+        """One step; ``course_rad`` (course over ground) keeps the corner speed until the boat
+        points along the new leg, so it does not accelerate out of the turn."""
         c = self.cfg
         out = self.los.update(pos_ne, speed_mps, dt_s)
         err = out.errors
@@ -88,6 +91,8 @@ class LegNavigator:
         # v^2 = v_corner^2 + 2 a d  (constant-deceleration profile up to the corner)
         v_brake = math.sqrt(v_corner**2 + 2.0 * c.decel_mps2 * max(0.0, remaining - lead))
         speed = min(c.speed_mps, v_brake)
+        if course_rad is not None and abs(wrap_pi(out.course_rad - course_rad)) > c.sharp_turn_rad:
+            speed = min(speed, c.turn_speed_mps)
         dist_end = math.hypot(pos_ne[0] - self.end[0], pos_ne[1] - self.end[1])
         reached = remaining <= lead or dist_end <= c.accept_radius_m
         return LegStep(ControlTarget(out.course_rad, speed, out.course_rate_radps), err, reached)

@@ -15,9 +15,14 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from companion.messages import NavState
+from companion.modes.auto import AutoMode
 from companion.modes.base import Mode
+from companion.modes.cruise import CruiseMode
+from companion.modes.guided import GuidedMode
 from companion.modes.hold import HoldMode
+from companion.modes.loiter import LoiterMode
 from companion.modes.manual import ManualMode
+from companion.modes.rtl import RtlMode
 
 if TYPE_CHECKING:
     from companion.vehicle import Vehicle
@@ -27,6 +32,11 @@ log = logging.getLogger(__name__)
 MODE_CLASSES: list[type[Mode]] = [
     ManualMode,
     HoldMode,
+    LoiterMode,
+    AutoMode,
+    RtlMode,
+    GuidedMode,
+    CruiseMode,
 ]
 """Every mode of the vehicle (one line per mode)."""
 

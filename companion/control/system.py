@@ -1,0 +1,149 @@
+"""The control stack one navigating mode drives: controller family + actuator mapping -> bus.
+
+:class:`ControlSystem` is created once per vehicle (:func:`control_of`), reads its tuning from
+the parameter table (rebuilt when a parameter changes), picks the controller family from
+``USV_CTRL_TYPE`` on every step (so it can be switched while moving; the new family starts from
+the current actuator state), and publishes :class:`~companion.messages.ActuatorCommand` on
+``actuator_cmd`` and the guidance :class:`~companion.messages.Setpoint` on ``setpoint``.
+The active-model family needs an identified qLPV model and the UKF's ``model_error`` topic;
+without a model it falls back to PID and says so once.
+"""
+
+from __future__ import annotations
+
+import importlib
+import logging
+import math
+from collections.abc import Callable
+
+from companion.app import Context
+from companion.control.active_model import ActiveModelController
+from companion.control.actuator import ActuatorMapper
+from companion.control.params import CTRL_ACTIVE_MODEL, active_model_config, actuator_limits, pid_config
+from companion.control.pid_family import PidController
+from companion.control.target import ControlOutput, ControlTarget, CourseSpeedController
+from companion.messages import ActuatorCommand, ModelError, NavState, Setpoint, StatusText
+from companion.models.qlpv import QLPVModel
+
+log = logging.getLogger(__name__)
+
+DT_MIN_S, DT_MAX_S = 0.001, 0.1
+"""The step uses sensor time; gaps are clamped so a late sample cannot kick the integrators."""
+
+ModelProvider = Callable[[], QLPVModel | None]
+
+
+def default_model_provider() -> QLPVModel | None:
+    """The models package's default identified qLPV model, if it offers one."""
+    try:
+        models = importlib.import_module("companion.models")
+        loader = getattr(models, "default_model", None)
+        model = loader() if callable(loader) else None
+    except Exception:  # a broken model file must not stop the boat: PID still works
+        log.exception("loading the default qLPV model failed")
+        return None
+    return model if isinstance(model, QLPVModel) else None
+
+
+class ControlSystem:
+    """Controller families, actuator mapping and publication for one vehicle."""
+
+    def __init__(self, ctx: Context, model_provider: ModelProvider = default_model_provider) -> None:
+        self.ctx = ctx
+        self._model_provider = model_provider
+        self._model: QLPVModel | None = None
+        self._model_loaded = False
+        self._families: dict[int, CourseSpeedController] = {}
+        self._active_type: int | None = None
+        self.mapper = ActuatorMapper(actuator_limits(ctx.params))
+        self._last_t_s: float | None = None
+        self.last_output: ControlOutput | None = None
+        self.last_target: ControlTarget | None = None
+        self._warned_no_model = False
+        self._cmd = ctx.bus.topic("actuator_cmd", ActuatorCommand)
+        self._setpoint = ctx.bus.topic("setpoint", Setpoint)
+        self._model_error = ctx.bus.topic("model_error", ModelError)
+        ctx.params.add_listener(self._on_param)
+
+    def _on_param(self, name: str, value: float) -> None:
+        if name.startswith("USV_") and name != "USV_CTRL_TYPE":
+            self._families.clear()  # rebuilt with the new tuning on the next step
+            self.mapper.limits = actuator_limits(self.ctx.params)
+
+    def _delta_nu(self) -> tuple[float, float, float] | None:
+        msg = self._model_error.latest()
+        if msg is None or self.ctx.clock.now_s() - msg.t_s > 0.5:
+            return None
+        return msg.delta_nu
+
+    @property
+    def model(self) -> QLPVModel | None:
+        if not self._model_loaded:
+            self._model_loaded = True
+            self._model = self._model_provider()
+        return self._model
+
+    def family_type(self) -> int:
+        """The controller family that will run (active model needs a model)."""
+        wanted = int(self.ctx.params.get("USV_CTRL_TYPE"))
+        if wanted == CTRL_ACTIVE_MODEL and self.model is None:
+            if not self._warned_no_model:
+                self._warned_no_model = True
+                self.ctx.bus.topic("status_text", StatusText).publish(StatusText(
+                    self.ctx.clock.now_s(), 4, "Active-model control: no identified model; using PID"))
+            return 0
+        return wanted
+
+    def _family(self, kind: int) -> CourseSpeedController:
+        fam = self._families.get(kind)
+        if fam is None:
+            p = self.ctx.params
+            if kind == CTRL_ACTIVE_MODEL and self.model is not None:
+                fam = ActiveModelController(self.model, active_model_config(p), delta_nu=self._delta_nu)
+            else:
+                fam = PidController(pid_config(p))
+            self._families[kind] = fam
+        return fam
+
+    def reset(self) -> None:
+        """Forget timing and integrators (a mode was entered)."""
+        self._last_t_s = None
+        self._active_type = None
+
+    def step(self, nav: NavState, target: ControlTarget, *, ignition_on: bool = True) -> ActuatorCommand:
+        """Run one control period for ``target`` and publish the actuator command."""
+        dt = 0.01 if self._last_t_s is None else nav.t_s - self._last_t_s
+        dt = min(DT_MAX_S, max(DT_MIN_S, dt))
+        self._last_t_s = nav.t_s
+        kind = self.family_type()
+        fam = self._family(kind)
+        if kind != self._active_type:
+            fam.reset(nav)
+            self._active_type = kind
+        if not (math.isfinite(target.course_rad) and math.isfinite(target.speed_mps)):
+            target = ControlTarget(nav.heading_rad, 0.0, is_heading=True)
+        out = fam.update(nav, target, dt, self.mapper.saturation)
+        nozzle, throttle, _ = self.mapper.apply(out.nozzle_rad, out.throttle, dt)
+        self.last_output, self.last_target = out, target
+        self._setpoint.publish(Setpoint(nav.t_s, target.course_rad % (2 * math.pi), target.speed_mps))
+        cmd = ActuatorCommand(t_s=nav.t_s, nozzle_rad=nozzle, throttle=throttle, ignition_on=ignition_on)
+        self._cmd.publish(cmd)
+        return cmd
+
+    def idle(self, nav: NavState, *, ignition_on: bool = True) -> ActuatorCommand:
+        """Engine idle, nozzle centred (slewed), integrators left alone."""
+        dt = 0.01 if self._last_t_s is None else min(DT_MAX_S, max(DT_MIN_S, nav.t_s - self._last_t_s))
+        self._last_t_s = nav.t_s
+        nozzle, throttle, _ = self.mapper.apply(0.0, 0.0, dt)
+        cmd = ActuatorCommand(t_s=nav.t_s, nozzle_rad=nozzle, throttle=throttle, ignition_on=ignition_on)
+        self._cmd.publish(cmd)
+        return cmd
+
+
+def control_of(ctx: Context) -> ControlSystem:
+    """The vehicle's control system (created on first use, kept in ``ctx.extras['control']``)."""
+    system = ctx.extras.get("control")
+    if not isinstance(system, ControlSystem):
+        system = ControlSystem(ctx)
+        ctx.extras["control"] = system
+    return system

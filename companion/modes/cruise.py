@@ -1,0 +1,68 @@
+"""CRUISE (custom mode 20): course hold at the heading and speed of entry; steer with the sticks.
+
+ArduPilot Rover has no course-hold mode (issue 12251).  Number 20 is outside Rover's mode numbers
+(0-16) so ground stations that decode Rover modes never confuse it; it is announced in
+AVAILABLE_MODES with MAV_STANDARD_MODE_CRUISE.  RC channel 1 (or MANUAL_CONTROL mapped onto it)
+turns the held heading at up to USV_TURN_MAX times the stick deflection; channel 3 above or below
+its centre changes the held speed at up to 1 m/s per second.  Sticks centred: the boat holds
+heading (not course: a course-hold boat crabs, this one keeps its bow where it was).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+from companion.control.target import ControlTarget
+from companion.messages import NavState, RcInput
+from companion.modes.base import STANDARD_MODE_CRUISE, requires_position
+from companion.modes.navigation import NavMode
+
+if TYPE_CHECKING:
+    from companion.vehicle import Vehicle
+
+STICK_DEADBAND = 0.05
+SPEED_RATE_MPS2 = 1.0
+MAX_SPEED_MPS = 10.0
+
+
+def stick(channels_us: tuple[int, ...], channel: int) -> float:
+    """Normalised stick -1..1 of a 1-based RC channel (1500 us centre, +-400 us), 0 if absent."""
+    if len(channels_us) < channel or not 800 <= channels_us[channel - 1] <= 2200:
+        return 0.0
+    value = max(-1.0, min(1.0, (channels_us[channel - 1] - 1500) / 400.0))
+    return 0.0 if abs(value) < STICK_DEADBAND else value
+
+
+class CruiseMode(NavMode):
+    number = 20
+    name = "CRUISE"
+    standard_mode = STANDARD_MODE_CRUISE
+    description = "Cruise: hold heading and speed of entry; sticks turn the heading and trim the speed."
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.heading_rad = 0.0
+        self.speed_mps = 0.0
+
+    def requirements(self, vehicle: Vehicle) -> str | None:
+        return requires_position(vehicle)
+
+    def enter(self, vehicle: Vehicle) -> None:
+        super().enter(vehicle)
+        nav = vehicle.nav()
+        assert nav is not None
+        self.heading_rad = nav.heading_rad
+        self.speed_mps = max(0.0, nav.u_mps)
+        self.nav_target = None
+
+    def update(self, vehicle: Vehicle, nav: NavState) -> None:
+        dt = self.dt(nav)
+        rc = vehicle.ctx.bus.topic("rc_in", RcInput).latest()
+        if rc is not None and vehicle.ctx.clock.now_s() - rc.t_s < 1.0:
+            turn_max = math.radians(vehicle.ctx.params.get("USV_TURN_MAX"))
+            self.heading_rad = (self.heading_rad + stick(rc.channels_us, 1) * turn_max * dt) % (2 * math.pi)
+            self.speed_mps = min(MAX_SPEED_MPS, max(0.0, self.speed_mps
+                                                    + stick(rc.channels_us, 3) * SPEED_RATE_MPS2 * dt))
+        target = ControlTarget(self.heading_rad, self.speed_mps, is_heading=True)
+        self.control(vehicle).step(nav, target, ignition_on=vehicle.armed)

@@ -1,0 +1,53 @@
+"""GUIDED (Rover 15): go where the ground station says (DO_REPOSITION, SET_POSITION_TARGET_GLOBAL_INT).
+
+The target is ``vehicle.guided_target`` (set by the MAVLink services).  The boat follows the leg
+from where it was when the target arrived to the target at WP_SPEED (or the target's speed),
+then keeps station on it; a target with a radius (DO_REPOSITION param3) is circled instead.
+Without a target the boat keeps station where GUIDED was entered.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from companion.messages import NavState
+from companion.modes.navigation import CircleTask, GotoTask, NavMode, StationTask, wp_speed_mps
+
+if TYPE_CHECKING:
+    from companion.vehicle import GuidedTarget, Vehicle
+
+
+class GuidedMode(NavMode):
+    number = 15
+    name = "GUIDED"
+    standard_mode = None
+    description = "Guided: go to the point the ground station sends, then keep station (or circle) there."
+    guided = True
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._target: GuidedTarget | None = None
+
+    def enter(self, vehicle: Vehicle) -> None:
+        super().enter(vehicle)
+        nav = vehicle.nav()
+        assert nav is not None
+        self._target = None
+        self.task = StationTask(vehicle.ctx.params, (nav.lat_deg, nav.lon_deg), nav.heading_rad)
+
+    def update(self, vehicle: Vehicle, nav: NavState) -> None:
+        params = vehicle.ctx.params
+        target = vehicle.guided_target
+        if target is not None and target is not self._target:
+            self._target = target
+            speed = wp_speed_mps(params, target.speed_mps)
+            self.task = GotoTask(params, (nav.lat_deg, nav.lon_deg), (target.lat_deg, target.lon_deg), speed)
+        task = self.task
+        if isinstance(task, GotoTask) and task.reached and self._target is not None:
+            point = (self._target.lat_deg, self._target.lon_deg)
+            if self._target.radius_m and self._target.radius_m > 0:
+                self.task = CircleTask(params, point, self._target.radius_m)
+            else:
+                self.task = StationTask(params, point, nav.heading_rad)
+        if self.task is not None:
+            self.run_task(vehicle, nav, self.task)
