@@ -25,6 +25,7 @@ def all_param_defs() -> tuple[ParamDef, ...]:
     from companion.actuators.params import PARAMS as ACTUATOR_PARAMS
     from companion.control.params import PARAMS as CONTROL_PARAMS
     from companion.guidance.params import PARAMS as GUIDANCE_PARAMS
+    from companion.mavlink.params import PARAMS as MAVLINK_PARAMS
     from companion.payloads.params import PARAMS as PAYLOAD_PARAMS
 
-    return CORE_PARAMS + GUIDANCE_PARAMS + CONTROL_PARAMS + PAYLOAD_PARAMS + ACTUATOR_PARAMS
+    return CORE_PARAMS + GUIDANCE_PARAMS + CONTROL_PARAMS + PAYLOAD_PARAMS + MAVLINK_PARAMS + ACTUATOR_PARAMS

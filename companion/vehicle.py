@@ -84,6 +84,11 @@ class Vehicle:
         self.home: Home | None = None
         self.guided_target: GuidedTarget | None = None
         self.speed_override_mps: float | None = None
+        self.failsafe_reason: str | None = None
+        self.servo_overrides_us: dict[int, int] = {}
+        """DO_SET_SERVO: output channel (1-based) -> pulse width the operator asked for."""
+        self.relays: dict[int, bool] = {}
+        """DO_SET_RELAY: relay instance -> on."""
         self.boot_s = ctx.clock.now_s()
         self._prearm_checks: list[tuple[str, PrearmCheck]] = [
             ("position", _check_position), ("attitude", _check_attitude),
@@ -99,6 +104,11 @@ class Vehicle:
         self.modes.add_listener(self._on_mode_changed)
         ctx.bus.topic("nav", NavState).add_listener(self._on_nav)
         ctx.extras["vehicle"] = self
+
+    @property
+    def in_failsafe(self) -> bool:
+        """A failsafe is active (heartbeat system_status CRITICAL); :attr:`failsafe_reason` says which."""
+        return self.failsafe_reason is not None
 
     # -- navigation ---------------------------------------------------------------------
     def nav(self) -> NavState | None:

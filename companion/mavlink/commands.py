@@ -26,7 +26,7 @@ import logging
 import math
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from companion.app import Context
@@ -62,6 +62,8 @@ class CommandRequest:
     source_system: int = 255
     source_component: int = 0
     confirmation: int = 0
+    link: Any = field(default=None, repr=False)
+    """The link the command arrived on (reply-to for REQUEST_MESSAGE and friends)."""
     progress_cb: Callable[[int], None] | None = field(default=None, repr=False)
 
     @property

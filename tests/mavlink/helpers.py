@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
+from collections.abc import AsyncIterator
 from pathlib import Path
+from typing import Any
 
 from companion.app import Context
 from companion.bus import Bus
@@ -37,3 +41,33 @@ def publish_nav(ctx: Context, **kwargs: object) -> NavState:
     nav = nav_sample(ctx.clock.now_s(), **kwargs)  # type: ignore[arg-type]
     ctx.bus.topic("nav", NavState).publish(nav)
     return nav
+
+
+@contextlib.asynccontextmanager
+async def running_vehicle(state_dir: Path, udp_ports: list[int], *, tcp_port: int | None = None,
+                          profile: str = "ardurover", serial: list[str] | None = None,
+                          extra_services: list[Any] | None = None) -> AsyncIterator[Context]:
+    """The companion's MAVLink services on a wall clock, sending to ``udp_ports`` on loopback."""
+    from companion.app import Application
+    from companion.clock import WallClock
+    from companion.mavlink.service import build_mavlink_services
+    from companion.runtime import build_context
+
+    config = default_config().with_overrides({
+        "vehicle.profile": profile, "vehicle.state_dir": str(state_dir),
+        "links.udp_targets": [f"127.0.0.1:{p}" for p in udp_ports],
+        "links.tcp_listen": f"127.0.0.1:{tcp_port}" if tcp_port else "",
+        "links.serial": serial or [],
+    })
+    ctx = build_context(config, WallClock())
+    app = Application([*build_mavlink_services(ctx), *(extra_services or [])])
+    task = asyncio.create_task(app.run(install_signal_handlers=False))
+    try:
+        while "mavlink" not in app.started:
+            if task.done():
+                task.result()
+            await asyncio.sleep(0.01)
+        yield ctx
+    finally:
+        app.request_stop()
+        await asyncio.wait_for(task, 5.0)

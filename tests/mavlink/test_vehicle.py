@@ -67,7 +67,7 @@ def test_failing_mode_update_falls_back_to_hold() -> None:
         number = 15
         name = "GUIDED"
 
-        def update(self, vehicle: Vehicle, nav: object) -> None:  # type: ignore[override]
+        def update(self, vehicle: Vehicle, nav: object) -> None:
             raise ZeroDivisionError("boom")
 
     from companion.modes.hold import HoldMode

@@ -1,0 +1,119 @@
+"""The link service: opens every configured transport and keeps the list of live links.
+
+Configuration (``[links]``): ``udp_targets`` (QGroundControl 14550, MAVSDK 14540 by default),
+``tcp_listen`` (5760), ``serial`` (radios) and ``tlog`` (one .tlog per link in
+``<state_dir>/logs``).  Other services register message handlers on :attr:`LinkManager.dispatcher`
+and send with :meth:`LinkManager.broadcast` or a link's own ``send``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import re
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from companion.app import BaseService, Context
+from companion.link.endpoint import Dispatcher, Link
+from companion.link.tlog import TlogWriter
+from companion.link.transports import SerialPort, TcpServer, UdpTarget
+
+log = logging.getLogger(__name__)
+
+TLOG_FLUSH_S = 1.0
+
+
+class LinkManager(BaseService):
+    """Owns the transports and links of the vehicle (service ``mavlink-links``)."""
+
+    name = "mavlink-links"
+
+    def __init__(self, ctx: Context, *, system_id: int | None = None, component_id: int = 1) -> None:
+        self.ctx = ctx
+        self.system_id = int(system_id if system_id is not None else ctx.params.get("SYSID_THISMAV"))
+        self.component_id = component_id
+        self.dispatcher = Dispatcher()
+        self.links: list[Link] = []
+        self.udp: list[UdpTarget] = []
+        self.tcp: TcpServer | None = None
+        self.serial: list[SerialPort] = []
+        self.link_listeners: list[Callable[[Link], None]] = []
+        self._tlog_dir: Path | None = None
+        self._session = time.strftime("%Y%m%d-%H%M%S", time.gmtime(ctx.clock.unix_time_s()))
+        ctx.extras["links"] = self
+
+    # -- links ----------------------------------------------------------------------------
+    def make_link(self, name: str, write: Callable[[bytes], None]) -> Link:
+        tlog = None
+        if self._tlog_dir is not None:
+            safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
+            tlog = TlogWriter(self._tlog_dir / f"{self._session}-{safe}.tlog")
+        link = Link(name, write, clock=self.ctx.clock, dispatcher=self.dispatcher, system_id=self.system_id,
+                    component_id=self.component_id, tlog=tlog)
+        self.links.append(link)
+        for listener in tuple(self.link_listeners):
+            try:
+                listener(link)
+            except Exception:
+                log.exception("link listener failed")
+        return link
+
+    def drop_link(self, link: Link) -> None:
+        if link in self.links:
+            self.links.remove(link)
+
+    def broadcast(self, msg: Any) -> None:
+        """Send one message on every link (each with its own sequence number)."""
+        for link in tuple(self.links):
+            link.send(msg)
+
+    def gcs_heartbeat_age_s(self) -> float | None:
+        """Seconds since the last GCS heartbeat on any link (``None``: never heard)."""
+        stamps = [link.last_gcs_heartbeat_s for link in self.links if link.last_gcs_heartbeat_s is not None]
+        return None if not stamps else self.ctx.clock.now_s() - max(stamps)
+
+    # -- life cycle -----------------------------------------------------------------------
+    async def start(self) -> None:
+        cfg = self.ctx.config
+        if cfg["links.tlog"]:
+            self._tlog_dir = cfg.state_dir() / "logs"
+        for target in cfg["links.udp_targets"]:
+            udp = UdpTarget(target, self.make_link)
+            await udp.start()
+            self.udp.append(udp)
+        if cfg["links.tcp_listen"]:
+            self.tcp = TcpServer(cfg["links.tcp_listen"], self.make_link, self.drop_link)
+            try:
+                await self.tcp.start()
+            except OSError as exc:
+                log.error("TCP server %s not started: %s", cfg["links.tcp_listen"], exc)
+                self.tcp = None
+        for spec in cfg["links.serial"]:
+            self.serial.append(SerialPort(spec, self.make_link, self.drop_link, self.ctx.clock))
+
+    async def run(self) -> None:
+        async with asyncio.TaskGroup() as tg:
+            for port in self.serial:
+                tg.create_task(port.run(), name=f"serial:{port.device}")
+            tg.create_task(self._flush_tlogs(), name="tlog-flush")
+
+    async def _flush_tlogs(self) -> None:
+        while True:
+            await asyncio.sleep(TLOG_FLUSH_S)  # wall time: disk flushing, not vehicle behaviour
+            for link in tuple(self.links):
+                if link.tlog is not None:
+                    link.tlog.flush()
+
+    async def stop(self) -> None:
+        for udp in self.udp:
+            await udp.stop()
+        if self.tcp is not None:
+            await self.tcp.stop()
+        for link in tuple(self.links):
+            with contextlib.suppress(Exception):
+                link.close()
+        self.links.clear()

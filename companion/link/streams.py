@@ -1,0 +1,138 @@
+"""Per-link telemetry stream rates: defaults, SET_MESSAGE_INTERVAL and REQUEST_DATA_STREAM.
+
+Each link has its own :class:`StreamRates` (a radio at 57600 baud and a loopback MAVSDK
+script want different rates).  Rates are kept as intervals in seconds of the vehicle clock;
+:meth:`StreamRates.due` returns the message ids to send now and schedules the next time
+without drift.  REQUEST_DATA_STREAM's groups follow ArduPilot's (``GCS_MAVLink``) so
+MAVProxy's and QGC's stream requests have the effect they have on ArduPilot.
+"""
+
+from __future__ import annotations
+
+import math
+
+# Message ids (MAVLink common.xml / development.xml)
+HEARTBEAT = 0
+SYS_STATUS = 1
+SYSTEM_TIME = 2
+GPS_RAW_INT = 24
+ATTITUDE = 30
+GLOBAL_POSITION_INT = 33
+SERVO_OUTPUT_RAW = 36
+MISSION_CURRENT = 42
+NAV_CONTROLLER_OUTPUT = 62
+RC_CHANNELS = 65
+VFR_HUD = 74
+POSITION_TARGET_GLOBAL_INT = 87
+BATTERY_STATUS = 147
+AUTOPILOT_VERSION = 148
+HOME_POSITION = 242
+EXTENDED_SYS_STATE = 245
+CURRENT_MODE = 436
+USV_LAUNCHER_STATUS = 43000
+USV_SAMPLER_STATUS = 43001
+USV_MODEL_STATUS = 43002
+
+MAX_RATE_HZ = 50.0
+"""Highest stream rate a link accepts (the scheduler ticks at 50 Hz)."""
+
+DEFAULT_RATES_HZ: dict[int, float] = {
+    HEARTBEAT: 1.0,
+    SYS_STATUS: 1.0,
+    SYSTEM_TIME: 1.0,
+    GPS_RAW_INT: 2.0,
+    ATTITUDE: 4.0,
+    GLOBAL_POSITION_INT: 4.0,
+    SERVO_OUTPUT_RAW: 2.0,
+    MISSION_CURRENT: 1.0,
+    NAV_CONTROLLER_OUTPUT: 2.0,
+    RC_CHANNELS: 2.0,
+    VFR_HUD: 4.0,
+    POSITION_TARGET_GLOBAL_INT: 2.0,
+    BATTERY_STATUS: 1.0,
+    HOME_POSITION: 0.2,
+    EXTENDED_SYS_STATE: 1.0,
+    CURRENT_MODE: 1.0,
+    USV_LAUNCHER_STATUS: 1.0,
+    USV_SAMPLER_STATUS: 1.0,
+    USV_MODEL_STATUS: 1.0,
+}
+"""Rates every new link starts with (roughly ArduPilot's SRx defaults for a telemetry radio)."""
+
+# REQUEST_DATA_STREAM groups (MAV_DATA_STREAM) as ArduPilot maps them.
+DATA_STREAM_GROUPS: dict[int, tuple[int, ...]] = {
+    1: (),  # RAW_SENSORS: no raw IMU on this vehicle
+    2: (SYS_STATUS, MISSION_CURRENT, GPS_RAW_INT, NAV_CONTROLLER_OUTPUT, POSITION_TARGET_GLOBAL_INT),
+    3: (SERVO_OUTPUT_RAW, RC_CHANNELS),
+    4: (),  # RAW_CONTROLLER
+    6: (GLOBAL_POSITION_INT,),
+    10: (ATTITUDE,),
+    11: (VFR_HUD,),
+    12: (SYSTEM_TIME, BATTERY_STATUS, EXTENDED_SYS_STATE, USV_LAUNCHER_STATUS, USV_SAMPLER_STATUS,
+         USV_MODEL_STATUS),
+}
+DATA_STREAM_ALL = 0
+
+
+class StreamRates:
+    """Message id -> send interval for one link, with drift-free due times."""
+
+    def __init__(self, defaults: dict[int, float] | None = None) -> None:
+        self._defaults_hz = dict(DEFAULT_RATES_HZ if defaults is None else defaults)
+        self._interval_s: dict[int, float] = {m: 1.0 / hz for m, hz in self._defaults_hz.items() if hz > 0}
+        self._next_s: dict[int, float] = {}
+
+    def interval_s(self, msg_id: int) -> float | None:
+        """Current interval, or ``None`` when the message is not streamed."""
+        return self._interval_s.get(msg_id)
+
+    def rate_hz(self, msg_id: int) -> float:
+        interval = self._interval_s.get(msg_id)
+        return 0.0 if interval is None else 1.0 / interval
+
+    def set_interval_us(self, msg_id: int, interval_us: float) -> None:
+        """SET_MESSAGE_INTERVAL semantics: -1 stop, 0 default rate, > 0 interval in microseconds."""
+        if not math.isfinite(interval_us):
+            raise ValueError(f"interval {interval_us} is not a number")
+        if interval_us < 0:
+            self._interval_s.pop(msg_id, None)
+        elif interval_us == 0:
+            hz = self._defaults_hz.get(msg_id, 0.0)
+            if hz > 0:
+                self._interval_s[msg_id] = 1.0 / hz
+            else:
+                self._interval_s.pop(msg_id, None)
+        else:
+            self._interval_s[msg_id] = max(interval_us * 1e-6, 1.0 / MAX_RATE_HZ)
+        self._next_s.pop(msg_id, None)
+
+    def set_rate_hz(self, msg_id: int, rate_hz: float) -> None:
+        if rate_hz <= 0:
+            self._interval_s.pop(msg_id, None)
+        else:
+            self._interval_s[msg_id] = 1.0 / min(rate_hz, MAX_RATE_HZ)
+        self._next_s.pop(msg_id, None)
+
+    def request_data_stream(self, stream_id: int, rate_hz: float, start: bool) -> None:
+        """REQUEST_DATA_STREAM: set every message of the group (0 = all groups)."""
+        groups = DATA_STREAM_GROUPS.values() if stream_id == DATA_STREAM_ALL else (
+            DATA_STREAM_GROUPS.get(stream_id, ()),)
+        for group in groups:
+            for msg_id in group:
+                self.set_rate_hz(msg_id, rate_hz if start else 0.0)
+
+    def due(self, now_s: float) -> list[int]:
+        """Message ids whose time has come; their next time is scheduled."""
+        out: list[int] = []
+        for msg_id, interval in self._interval_s.items():
+            next_s = self._next_s.get(msg_id)
+            if next_s is None:
+                self._next_s[msg_id] = now_s + interval
+                out.append(msg_id)
+            elif now_s + 1e-9 >= next_s:
+                next_s += interval
+                if next_s < now_s:  # fell behind (pause, slow link): resynchronise, do not burst
+                    next_s = now_s + interval
+                self._next_s[msg_id] = next_s
+                out.append(msg_id)
+        return out

@@ -1,0 +1,258 @@
+"""The MAVLink mission protocol for MISSION, FENCE and RALLY plans (MISSION_ITEM_INT).
+
+Upload (ground station -> boat): MISSION_COUNT, then the boat requests every item with
+MISSION_REQUEST_INT and validates it on arrival (an invalid item ends the upload with the
+MAV_MISSION_RESULT code of :mod:`companion.mission.validate`); a request that gets no
+answer within :data:`ITEM_TIMEOUT_S` is repeated up to :data:`MAX_RETRIES` times (the
+spec's 1.5 s / 5 retries, with more retries so an upload survives 30 % packet loss); the
+plan is installed and persisted only when complete and valid, then MISSION_ACK.
+
+Download: MISSION_REQUEST_LIST -> MISSION_COUNT; items are served statelessly for any
+request, so lost packets only cost the ground station a retry.  Under the ``ardurover``
+profile item 0 of the mission is the home position (what MAVSDK and QGC expect from
+ArduPilot): a download always has it, filled with the current home.
+
+Also: MISSION_CLEAR_ALL, MISSION_SET_CURRENT (answered with MISSION_CURRENT) and
+MISSION_ITEM_REACHED broadcast when AUTO reports progress.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+from companion.app import Context
+from companion.link.dialect import mav
+from companion.link.endpoint import Link
+from companion.link.manager import LinkManager
+from companion.mavlink import telemetry
+from companion.mission import validate as v
+from companion.mission.items import MissionItem, MissionType
+from companion.vehicle import SEVERITY_WARNING, Vehicle
+
+log = logging.getLogger(__name__)
+
+ITEM_TIMEOUT_S = 1.5
+MAX_RETRIES = 10
+CHECK_PERIOD_S = 0.05
+
+
+@dataclass
+class Upload:
+    """An upload in progress on one link for one mission type."""
+
+    link: Link
+    peer: tuple[int, int]
+    mission_type: int
+    count: int
+    items: list[MissionItem] = field(default_factory=list)
+    deadline_s: float = 0.0
+    retries: int = 0
+
+    @property
+    def expected(self) -> int:
+        return len(self.items)
+
+
+def item_from_msg(msg: Any) -> MissionItem:
+    """MISSION_ITEM_INT (or the float MISSION_ITEM) -> :class:`MissionItem`."""
+    if msg.get_type() == "MISSION_ITEM_INT":
+        x, y = int(msg.x), int(msg.y)
+    else:  # MISSION_ITEM: degrees as float; NaN becomes an impossible value so validation refuses it
+        x = round(msg.x * 1e7) if math.isfinite(msg.x) else 2**31 - 1
+        y = round(msg.y * 1e7) if math.isfinite(msg.y) else 2**31 - 1
+    return MissionItem(seq=int(msg.seq), frame=int(msg.frame), command=int(msg.command), param1=msg.param1,
+                       param2=msg.param2, param3=msg.param3, param4=msg.param4, x=x, y=y, z=msg.z,
+                       current=int(msg.current), autocontinue=int(msg.autocontinue),
+                       mission_type=int(getattr(msg, "mission_type", 0)))
+
+
+class MissionService:
+    """Serves the mission protocol on every link."""
+
+    def __init__(self, ctx: Context, links: LinkManager, vehicle: Vehicle, *,
+                 item_timeout_s: float = ITEM_TIMEOUT_S, max_retries: int = MAX_RETRIES) -> None:
+        self.ctx = ctx
+        self.links = links
+        self.vehicle = vehicle
+        self.store = vehicle.missions
+        self.item_timeout_s = item_timeout_s
+        self.max_retries = max_retries
+        self.uploads: dict[tuple[int, int], Upload] = {}
+        self.completed_uploads = 0
+        d = links.dispatcher
+        d.on("MISSION_COUNT", self._on_count)
+        d.on("MISSION_ITEM_INT", self._on_item)
+        d.on("MISSION_ITEM", self._on_item)
+        d.on("MISSION_REQUEST_LIST", self._on_request_list)
+        d.on("MISSION_REQUEST_INT", self._on_request)
+        d.on("MISSION_REQUEST", self._on_request)
+        d.on("MISSION_CLEAR_ALL", self._on_clear)
+        d.on("MISSION_SET_CURRENT", self._on_set_current)
+        d.on("MISSION_ACK", self._on_ack)
+        vehicle.reached_listeners.append(self._on_reached)
+
+    @property
+    def home_first(self) -> bool:
+        return self.vehicle.profile == "ardurover"
+
+    # -- helpers ------------------------------------------------------------------------
+    def _ack(self, link: Link, peer: tuple[int, int], result: int, mission_type: int) -> None:
+        link.send(mav.MAVLink_mission_ack_message(peer[0], peer[1], result, mission_type))
+
+    def _request(self, up: Upload) -> None:
+        up.link.send(mav.MAVLink_mission_request_int_message(up.peer[0], up.peer[1], up.expected,
+                                                             up.mission_type))
+        up.deadline_s = self.ctx.clock.now_s() + self.item_timeout_s
+
+    def _refuse(self, up: Upload, problem: v.ItemProblem) -> None:
+        self.uploads.pop((id(up.link), up.mission_type), None)
+        self._ack(up.link, up.peer, problem.code, up.mission_type)
+        self.vehicle.status(f"Mission upload refused: {problem.reason}", SEVERITY_WARNING)
+
+    # -- upload -------------------------------------------------------------------------
+    def _on_count(self, link: Link, msg: Any) -> None:
+        peer = (msg.get_srcSystem(), msg.get_srcComponent())
+        mtype = int(getattr(msg, "mission_type", 0))
+        if mtype not in tuple(MissionType):
+            self._ack(link, peer, v.UNSUPPORTED, mtype)
+            return
+        count = int(msg.count)
+        if count == 0:
+            self.uploads.pop((id(link), mtype), None)
+            self.store.replace(mtype, [])
+            self._ack(link, peer, v.ACCEPTED, mtype)
+            return
+        capacity = v.MAX_ITEMS[mtype] + (1 if self.home_first and mtype == MissionType.MISSION else 0)
+        if count > capacity:
+            self._ack(link, peer, v.NO_SPACE, mtype)
+            self.vehicle.status(f"Mission upload refused: {count} items exceed {capacity}", SEVERITY_WARNING)
+            return
+        up = Upload(link, peer, mtype, count)
+        self.uploads[(id(link), mtype)] = up
+        self._request(up)
+
+    def _on_item(self, link: Link, msg: Any) -> None:
+        mtype = int(getattr(msg, "mission_type", 0))
+        up = self.uploads.get((id(link), mtype))
+        if up is None:
+            return  # late duplicate after the upload finished, or no upload: ignore
+        seq = int(msg.seq)
+        if seq != up.expected:
+            if seq < up.expected:
+                self._request(up)  # our request was answered twice or lost: ask again for the next one
+            return
+        item = item_from_msg(msg).with_seq(seq)
+        is_home = self.home_first and seq == 0 and mtype == MissionType.MISSION
+        problem = v.validate_item(item, home_item=is_home)
+        if problem is not None:
+            self._refuse(up, problem)
+            return
+        up.items.append(item)
+        up.retries = 0
+        if up.expected < up.count:
+            self._request(up)
+            return
+        problem = v.validate_plan(up.items, home_first=self.home_first)
+        if problem is not None:
+            self._refuse(up, problem)
+            return
+        del self.uploads[(id(link), mtype)]
+        try:
+            self.store.replace(mtype, up.items)
+        except OSError as exc:
+            self._ack(link, up.peer, v.ERROR, mtype)
+            self.vehicle.status(f"Mission not saved: {exc}", SEVERITY_WARNING)
+            return
+        self.completed_uploads += 1
+        self._ack(link, up.peer, v.ACCEPTED, mtype)
+        kind = MissionType(mtype).name.lower()
+        self.vehicle.status(f"{kind.capitalize()} received: {up.count} items")
+
+    async def run(self) -> None:
+        """Repeat unanswered item requests; give up after :attr:`max_retries`."""
+        while True:
+            await self.ctx.clock.sleep(CHECK_PERIOD_S)
+            now_s = self.ctx.clock.now_s()
+            for key, up in list(self.uploads.items()):
+                if up.link.closed:
+                    del self.uploads[key]
+                elif now_s >= up.deadline_s:
+                    if up.retries >= self.max_retries:
+                        del self.uploads[key]
+                        self._ack(up.link, up.peer, v.OPERATION_CANCELLED, up.mission_type)
+                        self.vehicle.status(f"Mission upload timed out at item {up.expected}",
+                                            SEVERITY_WARNING)
+                    else:
+                        up.retries += 1
+                        self._request(up)
+
+    # -- download -----------------------------------------------------------------------
+    def download_plan(self, mission_type: int) -> list[MissionItem]:
+        """What a download returns: the stored plan, with home as item 0 under ``ardurover``."""
+        plan = self.store.items(mission_type)
+        if self.home_first and mission_type == MissionType.MISSION:
+            home = self.vehicle.home
+            if home is not None:
+                home_item = MissionItem.home(home.lat_deg, home.lon_deg, home.alt_m)
+                plan = [home_item, *plan[1:]] if plan else [home_item]
+        return plan
+
+    def _on_request_list(self, link: Link, msg: Any) -> None:
+        mtype = int(getattr(msg, "mission_type", 0))
+        peer = (msg.get_srcSystem(), msg.get_srcComponent())
+        if mtype not in tuple(MissionType):
+            self._ack(link, peer, v.UNSUPPORTED, mtype)
+            return
+        link.send(mav.MAVLink_mission_count_message(peer[0], peer[1], len(self.download_plan(mtype)), mtype))
+
+    def _on_request(self, link: Link, msg: Any) -> None:
+        mtype = int(getattr(msg, "mission_type", 0))
+        peer = (msg.get_srcSystem(), msg.get_srcComponent())
+        if mtype not in tuple(MissionType):
+            self._ack(link, peer, v.UNSUPPORTED, mtype)
+            return
+        plan = self.download_plan(mtype)
+        seq = int(msg.seq)
+        if not 0 <= seq < len(plan):
+            self._ack(link, peer, v.INVALID_SEQUENCE, mtype)
+            return
+        it = plan[seq]
+        current = 1 if (mtype == MissionType.MISSION and seq == self.vehicle.current_seq) else 0
+        if msg.get_type() == "MISSION_REQUEST_INT":
+            link.send(mav.MAVLink_mission_item_int_message(
+                peer[0], peer[1], seq, it.frame, it.command, current, it.autocontinue, it.param1, it.param2,
+                it.param3, it.param4, it.x, it.y, it.z, mtype))
+        else:
+            link.send(mav.MAVLink_mission_item_message(
+                peer[0], peer[1], seq, it.frame, it.command, current, it.autocontinue, it.param1, it.param2,
+                it.param3, it.param4, it.lat_deg, it.lon_deg, it.z, mtype))
+
+    def _on_ack(self, link: Link, msg: Any) -> None:
+        return None  # end of a download: nothing to clean up (downloads are stateless)
+
+    # -- other --------------------------------------------------------------------------
+    def _on_clear(self, link: Link, msg: Any) -> None:
+        mtype = int(getattr(msg, "mission_type", 0))
+        peer = (msg.get_srcSystem(), msg.get_srcComponent())
+        if mtype not in (*tuple(MissionType), mav.MAV_MISSION_TYPE_ALL):
+            self._ack(link, peer, v.UNSUPPORTED, mtype)
+            return
+        self.store.clear(mtype)
+        self._ack(link, peer, v.ACCEPTED, mtype)
+
+    def _on_set_current(self, link: Link, msg: Any) -> None:
+        reason = self.vehicle.set_current(int(msg.seq))
+        if reason:
+            self.vehicle.status(f"Set current refused: {reason}", SEVERITY_WARNING)
+        link.send(telemetry.mission_current(self.ctx, self.vehicle))
+
+    def _on_reached(self, seq: int) -> None:
+        self.links.broadcast(mav.MAVLink_mission_item_reached_message(seq))
+
+    async def stop(self) -> None:
+        self.uploads.clear()
+        await asyncio.sleep(0)

@@ -1,0 +1,198 @@
+"""The companion as a MAVLink vehicle: wires links, vehicle, commands, params, missions, telemetry.
+
+:func:`build_mavlink_services` returns the two services ``usv sitl`` and ``usv companion``
+run: the :class:`~companion.link.manager.LinkManager` (sockets and radios) and
+:class:`MavlinkService` (everything the vehicle says and answers).  The service streams
+telemetry on each link at that link's rates, relays STATUSTEXT, runs the ground-station
+failsafe (FS_GCS_ENABLE/FS_GCS_TIMEOUT/FS_ACTION and the chapter's USV_FS_ENG_STOP engine
+stop) and, unless the control loop does it, calls the active mode on every navigation sample.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import math
+from typing import Any
+
+from companion.app import BaseService, Context, Service
+from companion.clock import periodic
+from companion.link import streams
+from companion.link.dialect import mav
+from companion.link.endpoint import Link
+from companion.link.manager import LinkManager
+from companion.mavlink import identity, telemetry
+from companion.mavlink.command_service import CommandService
+from companion.mavlink.commands import registry_of
+from companion.mavlink.ftp import FtpService
+from companion.mavlink.mission_service import MissionService
+from companion.mavlink.param_service import ParamService
+from companion.mavlink.vehicle_commands import MODE_GUIDED, register_vehicle_commands
+from companion.messages import NavState, StatusText
+from companion.mission.store import MissionStore
+from companion.vehicle import SEVERITY_CRITICAL, SEVERITY_INFO, SEVERITY_WARNING, GuidedTarget, Vehicle
+
+log = logging.getLogger(__name__)
+
+TICK_S = 1.0 / streams.MAX_RATE_HZ
+"""Stream scheduler period (vehicle clock)."""
+STATUSTEXT_MAX = 50
+
+
+class MavlinkService(BaseService):
+    """Everything the vehicle says on and answers from its MAVLink links."""
+
+    name = "mavlink"
+
+    def __init__(self, ctx: Context, links: LinkManager) -> None:
+        self.ctx = ctx
+        self.links = links
+        existing = ctx.extras.get("vehicle")
+        if isinstance(existing, Vehicle):
+            self.vehicle = existing
+        else:
+            store = MissionStore(ctx.config.state_dir() / "missions")
+            self.vehicle = Vehicle(ctx, store)
+        self.drive_modes_from_nav = True
+        """Call the active mode on each nav sample (set False when the control loop does it)."""
+        register_vehicle_commands(registry_of(ctx))
+        self.commands = CommandService(ctx, links, self.vehicle)
+        self.params = ParamService(ctx, links, self.vehicle)
+        self.missions = MissionService(ctx, links, self.vehicle)
+        self.ftp = FtpService(links)
+        d = links.dispatcher
+        d.on("REQUEST_DATA_STREAM", self._on_request_data_stream)
+        d.on("SET_MODE", self._on_set_mode)
+        d.on("SET_POSITION_TARGET_GLOBAL_INT", self._on_position_target)
+        self._failsafe_gcs = False
+        self._failsafe_engine = False
+        ctx.extras["mavlink"] = self
+
+    async def start(self) -> None:
+        ctx, vehicle = self.ctx, self.vehicle
+        ctx.bus.topic("status_text", StatusText).add_listener(self._on_status_text)
+        ctx.bus.topic("nav", NavState).add_listener(self._on_nav)
+        vehicle.modes.start()
+        vehicle.status(identity.boot_banner())
+        profile = "ArduRover-compatible modes" if vehicle.profile == "ardurover" else "generic autopilot"
+        vehicle.status(f"MAVLink profile {vehicle.profile}: {profile}")
+        vehicle.publish_status()
+
+    async def run(self) -> None:
+        async with asyncio.TaskGroup() as tg:
+            tg.create_task(self._stream_loop(), name="mavlink-streams")
+            tg.create_task(self.missions.run(), name="mavlink-missions")
+            tg.create_task(self._failsafe_loop(), name="mavlink-failsafe")
+
+    async def stop(self) -> None:
+        await self.commands.stop()
+        await self.params.stop()
+        await self.missions.stop()
+
+    # -- telemetry ------------------------------------------------------------------------
+    async def _stream_loop(self) -> None:
+        async for now_s in periodic(self.ctx.clock, TICK_S):
+            self.stream_once(now_s)
+
+    def stream_once(self, now_s: float) -> None:
+        """Send every message that is due on every link (each built once per tick)."""
+        cache: dict[int, Any] = {}
+        for link in tuple(self.links.links):
+            for msg_id in link.rates.due(now_s):
+                if msg_id not in cache:
+                    try:
+                        cache[msg_id] = telemetry.build(self.ctx, self.vehicle, msg_id)
+                    except Exception:
+                        log.exception("building message %d failed", msg_id)
+                        cache[msg_id] = None
+                msg = cache[msg_id]
+                if msg is not None:
+                    link.send(msg)
+
+    def _on_status_text(self, status: StatusText) -> None:
+        text = status.text.encode("ascii", "replace")
+        chunks = [text[i:i + STATUSTEXT_MAX] for i in range(0, max(len(text), 1), STATUSTEXT_MAX)][:4]
+        msg_id = (hash((status.t_s, status.text)) & 0xFFFF) if len(chunks) > 1 else 0
+        for index, chunk in enumerate(chunks):
+            self.links.broadcast(mav.MAVLink_statustext_message(max(0, min(7, status.severity)), chunk,
+                                                                msg_id, index))
+
+    def _on_nav(self, nav: NavState) -> None:
+        if self.drive_modes_from_nav:
+            self.vehicle.modes.update(nav)
+
+    # -- messages besides commands ----------------------------------------------------------
+    def _on_request_data_stream(self, link: Link, msg: Any) -> None:
+        rate = float(msg.req_message_rate)
+        link.rates.request_data_stream(int(msg.req_stream_id), rate, bool(msg.start_stop) and rate > 0)
+
+    def _on_set_mode(self, link: Link, msg: Any) -> None:
+        """The legacy SET_MODE message (answered with COMMAND_ACK for command 11, as ArduPilot)."""
+        src = (msg.get_srcSystem(), msg.get_srcComponent())
+        reason: str | None
+        if not int(msg.base_mode) & mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+            result, reason = mav.MAV_RESULT_DENIED, "SET_MODE: only custom modes are supported"
+        else:
+            reason = self.vehicle.set_mode(int(msg.custom_mode))
+            result = mav.MAV_RESULT_ACCEPTED if reason is None else mav.MAV_RESULT_DENIED
+        self.commands.send_ack(link, 11, result, src)
+        if reason:
+            self.vehicle.status(f"Mode change failed: {reason}", SEVERITY_WARNING)
+
+    def _on_position_target(self, link: Link, msg: Any) -> None:
+        """SET_POSITION_TARGET_GLOBAL_INT: a new GUIDED target (ignored outside GUIDED)."""
+        if self.vehicle.modes.current.number != MODE_GUIDED:
+            return
+        if msg.type_mask & mav.POSITION_TARGET_TYPEMASK_X_IGNORE:
+            return  # velocity-only targets are not supported on this boat
+        lat_deg, lon_deg = msg.lat_int / 1e7, msg.lon_int / 1e7
+        if not (-90 <= lat_deg <= 90 and -180 <= lon_deg <= 180) or (lat_deg == 0 and lon_deg == 0):
+            self.vehicle.status("Position target refused: invalid position", SEVERITY_WARNING)
+            return
+        speed = None
+        if not msg.type_mask & mav.POSITION_TARGET_TYPEMASK_VX_IGNORE:
+            speed_mps = math.hypot(msg.vx, msg.vy)
+            speed = speed_mps if math.isfinite(speed_mps) and speed_mps > 0 else None
+        self.vehicle.guided_target = GuidedTarget(lat_deg, lon_deg, speed, None, self.ctx.clock.now_s())
+
+    # -- ground-station failsafe -------------------------------------------------------------
+    async def _failsafe_loop(self) -> None:
+        async for _ in periodic(self.ctx.clock, 0.2):
+            self.check_failsafe()
+
+    def check_failsafe(self) -> None:
+        """FS_GCS_* and USV_FS_ENG_STOP against the age of the last GCS heartbeat."""
+        params, vehicle = self.ctx.params, self.vehicle
+        age_s = self.links.gcs_heartbeat_age_s()
+        if age_s is None:
+            return  # no ground station heard yet: nothing to lose
+        enable = params.get_int("FS_GCS_ENABLE")
+        timeout_s = params.get("FS_GCS_TIMEOUT")
+        lost = age_s > timeout_s
+        if lost and enable and vehicle.armed and not self._failsafe_gcs:
+            self._failsafe_gcs = True
+            vehicle.failsafe_reason = "gcs"
+            continue_auto = enable == 2 and vehicle.modes.current.number == 10
+            vehicle.status(f"GCS failsafe: no heartbeat for {age_s:.0f} s", SEVERITY_CRITICAL)
+            action = params.get_int("FS_ACTION")
+            if not continue_auto and action in (1, 2):
+                target = 11 if action == 1 else 4
+                reason = vehicle.set_mode(target)
+                if reason and target == 11:
+                    vehicle.set_mode(4)
+        elif not lost and self._failsafe_gcs:
+            self._failsafe_gcs = False
+            vehicle.failsafe_reason = None
+            vehicle.status("GCS failsafe cleared", SEVERITY_INFO)
+        stop_s = params.get("USV_FS_ENG_STOP")
+        if stop_s > 0 and age_s > stop_s and vehicle.armed and not self._failsafe_engine:
+            self._failsafe_engine = True
+            vehicle.disarm(reason=f"engine stop, no ground station for {stop_s:.0f} s")
+        elif age_s <= stop_s:
+            self._failsafe_engine = False
+
+
+def build_mavlink_services(ctx: Context) -> list[Service]:
+    """The link service and the MAVLink vehicle service, in start-up order."""
+    links = LinkManager(ctx)
+    return [links, MavlinkService(ctx, links)]

@@ -1,0 +1,294 @@
+"""The vehicle's built-in commands (arming, modes, navigation, home, servos, message requests).
+
+Each handler checks its parameters (NaN and out-of-range values are DENIED with a reason)
+and calls :class:`~companion.vehicle.Vehicle`; none touches actuators directly.
+:func:`register_vehicle_commands` adds them to a vehicle's command registry.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from companion.app import Context
+from companion.link.dialect import mav
+from companion.link.endpoint import Link
+from companion.mavlink import identity, telemetry
+from companion.mavlink.commands import CommandRegistry, CommandRequest, CommandResult
+from companion.mission.validate import MAX_SPEED_MPS
+from companion.vehicle import FORCE_MAGIC, GuidedTarget, vehicle_of
+
+MODE_AUTO = 10
+MODE_RTL = 11
+MODE_GUIDED = 15
+
+SERVO_CHANNELS = 16
+SERVO_MIN_US = 500
+SERVO_MAX_US = 2500
+RELAY_COUNT = 6
+
+MSG_PROTOCOL_VERSION = 300
+MSG_COMPONENT_INFORMATION = 395
+MSG_COMPONENT_METADATA = 397
+MSG_AVAILABLE_MODES = 435
+MSG_AUTOPILOT_VERSION = 148
+MSG_HOME_POSITION = 242
+
+
+def _is_int(x: float) -> bool:
+    return math.isfinite(x) and float(x).is_integer()
+
+
+def _reply(cmd: CommandRequest, msg: Any) -> None:
+    link = cmd.link
+    if isinstance(link, Link):
+        link.send(msg)
+
+
+async def arm_disarm(ctx: Context, cmd: CommandRequest) -> CommandResult:
+    vehicle = vehicle_of(ctx)
+    force = int(cmd.param2) == FORCE_MAGIC if math.isfinite(cmd.param2) else False
+    if cmd.param1 == 1.0:
+        reason = vehicle.arm(force=force)
+    elif cmd.param1 == 0.0:
+        reason = vehicle.disarm(force=force)
+    else:
+        return CommandResult.denied(f"ARM_DISARM: param1 must be 0 or 1, got {cmd.param1:g}")
+    return CommandResult.accepted() if reason is None else CommandResult.denied(reason)
+
+
+def _set_mode(ctx: Context, number: int) -> CommandResult:
+    reason = vehicle_of(ctx).set_mode(number)
+    if reason is None:
+        return CommandResult.accepted()
+    return CommandResult.denied(f"Mode change failed: {reason}")
+
+
+async def do_set_mode(ctx: Context, cmd: CommandRequest) -> CommandResult:
+    base_mode, custom_mode = cmd.param1, cmd.param2
+    if not _is_int(base_mode) or not int(base_mode) & mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+        return CommandResult.denied("DO_SET_MODE: only custom modes are supported (param1 bit 1)")
+    if not _is_int(custom_mode) or custom_mode < 0:
+        return CommandResult.denied(f"DO_SET_MODE: mode {custom_mode:g} is not a mode number")
+    return _set_mode(ctx, int(custom_mode))
+
+
+async def do_set_standard_mode(ctx: Context, cmd: CommandRequest) -> CommandResult:
+    if not _is_int(cmd.param1):
+        return CommandResult.denied("DO_SET_STANDARD_MODE: param1 must be a MAV_STANDARD_MODE")
+    mode = vehicle_of(ctx).modes.by_standard_mode(int(cmd.param1))
+    if mode is None or int(cmd.param1) == 0:
+        return CommandResult.denied(f"Standard mode {int(cmd.param1)} is not available on this vehicle")
+    return _set_mode(ctx, mode.number)
+
+
+async def return_to_launch(ctx: Context, cmd: CommandRequest) -> CommandResult:
+    return _set_mode(ctx, MODE_RTL)
+
+
+async def mission_start(ctx: Context, cmd: CommandRequest) -> CommandResult:
+    vehicle = vehicle_of(ctx)
+    if len(vehicle.mission_items()) <= vehicle.first_mission_seq:
+        return CommandResult.denied("Mission start failed: no mission")
+    first = cmd.param1
+    if math.isfinite(first) and first > 0:
+        if not first.is_integer():
+            return CommandResult.denied(f"MISSION_START: first item {first:g} is not an item number")
+        reason = vehicle.set_current(int(first))
+        if reason:
+            return CommandResult.denied(f"Mission start failed: {reason}")
+    vehicle.start_mission()
+    if vehicle.modes.current.number != MODE_AUTO:
+        return _set_mode(ctx, MODE_AUTO)
+    return CommandResult.accepted()
+
+
+async def do_set_mission_current(ctx: Context, cmd: CommandRequest) -> CommandResult:
+    if not _is_int(cmd.param1) or cmd.param1 < 0:
+        return CommandResult.denied(f"SET_MISSION_CURRENT: {cmd.param1:g} is not an item number")
+    reason = vehicle_of(ctx).set_current(int(cmd.param1))
+    return CommandResult.accepted() if reason is None else CommandResult.denied(reason)
+
+
+def _valid_lat_lon(lat_deg: float, lon_deg: float) -> str | None:
+    if not (math.isfinite(lat_deg) and -90 <= lat_deg <= 90):
+        return f"latitude {lat_deg:g} is not valid"
+    if not (math.isfinite(lon_deg) and -180 <= lon_deg <= 180):
+        return f"longitude {lon_deg:g} is not valid"
+    if lat_deg == 0 and lon_deg == 0:
+        return "position 0,0 (missing coordinates)"
+    return None
+
+
+def _speed_or_none(speed_mps: float, what: str) -> tuple[float | None, str | None]:
+    if not math.isfinite(speed_mps) or speed_mps < 0:
+        return None, None  # -1 / NaN: keep the default speed
+    if speed_mps > MAX_SPEED_MPS:
+        return None, f"{what}: speed {speed_mps:g} m/s above {MAX_SPEED_MPS:g} m/s"
+    return speed_mps, None
+
+
+async def do_reposition(ctx: Context, cmd: CommandRequest) -> CommandResult:
+    vehicle = vehicle_of(ctx)
+    lat_deg, lon_deg = cmd.lat_deg, cmd.lon_deg
+    problem = _valid_lat_lon(lat_deg, lon_deg)
+    if problem:
+        return CommandResult.denied(f"Reposition refused: {problem}")
+    speed, problem = _speed_or_none(cmd.param1, "Reposition refused")
+    if problem:
+        return CommandResult.denied(problem)
+    radius = cmd.param3 if math.isfinite(cmd.param3) and cmd.param3 > 0 else None
+    change_mode = math.isfinite(cmd.param2) and int(cmd.param2) & mav.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE
+    previous = vehicle.guided_target
+    vehicle.guided_target = GuidedTarget(lat_deg, lon_deg, speed, radius, ctx.clock.now_s())
+    if vehicle.modes.current.number != MODE_GUIDED:
+        if not change_mode:
+            vehicle.guided_target = previous
+            return CommandResult.denied("Reposition refused: not in GUIDED (set param2 bit 1 to switch)")
+        result = _set_mode(ctx, MODE_GUIDED)
+        if result.result != 0:
+            vehicle.guided_target = previous
+        return result
+    return CommandResult.accepted()
+
+
+async def do_change_speed(ctx: Context, cmd: CommandRequest) -> CommandResult:
+    speed = cmd.param2
+    vehicle = vehicle_of(ctx)
+    if speed in (-1.0, -2.0):
+        if speed == -2.0:
+            vehicle.speed_override_mps = None
+        return CommandResult.accepted()
+    if not math.isfinite(speed) or not 0.0 <= speed <= MAX_SPEED_MPS:
+        return CommandResult.denied(f"Change speed refused: {speed:g} m/s outside [0, {MAX_SPEED_MPS:g}]")
+    vehicle.speed_override_mps = speed
+    return CommandResult.accepted()
+
+
+async def do_set_home(ctx: Context, cmd: CommandRequest) -> CommandResult:
+    vehicle = vehicle_of(ctx)
+    if cmd.param1 == 1.0:
+        nav = vehicle.nav()
+        if nav is None or not nav.position_valid:
+            return CommandResult.denied("Set home refused: no position estimate")
+        reason = vehicle.set_home(nav.lat_deg, nav.lon_deg, nav.alt_m)
+    else:
+        problem = _valid_lat_lon(cmd.lat_deg, cmd.lon_deg)
+        if problem:
+            return CommandResult.denied(f"Set home refused: {problem}")
+        alt = cmd.param7 if math.isfinite(cmd.param7) else 0.0
+        reason = vehicle.set_home(cmd.lat_deg, cmd.lon_deg, alt)
+    return CommandResult.accepted() if reason is None else CommandResult.denied(reason)
+
+
+async def do_set_servo(ctx: Context, cmd: CommandRequest) -> CommandResult:
+    channel, pwm = cmd.param1, cmd.param2
+    if not _is_int(channel) or not 1 <= channel <= SERVO_CHANNELS:
+        return CommandResult.denied(f"Set servo refused: channel {channel:g} not in 1..{SERVO_CHANNELS}")
+    if not _is_int(pwm) or not SERVO_MIN_US <= pwm <= SERVO_MAX_US:
+        return CommandResult.denied(f"Set servo refused: {pwm:g} us not in {SERVO_MIN_US}..{SERVO_MAX_US}")
+    vehicle_of(ctx).servo_overrides_us[int(channel)] = int(pwm)
+    return CommandResult.accepted()
+
+
+async def do_set_relay(ctx: Context, cmd: CommandRequest) -> CommandResult:
+    instance, setting = cmd.param1, cmd.param2
+    if not _is_int(instance) or not 0 <= instance < RELAY_COUNT:
+        return CommandResult.denied(f"Set relay refused: relay {instance:g} not in 0..{RELAY_COUNT - 1}")
+    if setting not in (0.0, 1.0):
+        return CommandResult.denied(f"Set relay refused: setting {setting:g} must be 0 or 1")
+    vehicle_of(ctx).relays[int(instance)] = setting == 1.0
+    return CommandResult.accepted()
+
+
+def protocol_version_msg() -> Any:
+    return mav.MAVLink_protocol_version_message(200, 100, 200, [0] * 8, [0] * 8)
+
+
+def send_message_now(ctx: Context, cmd: CommandRequest, msg_id: int, param2: float = 0.0) -> CommandResult:
+    """Answer REQUEST_MESSAGE-like commands on the requesting link."""
+    vehicle = vehicle_of(ctx)
+    links = ctx.extras.get("links")
+    system_id = getattr(links, "system_id", 1)
+    if msg_id == MSG_AUTOPILOT_VERSION:
+        _reply(cmd, identity.autopilot_version(vehicle, system_id))
+        return CommandResult.accepted()
+    if msg_id == MSG_PROTOCOL_VERSION:
+        _reply(cmd, protocol_version_msg())
+        return CommandResult.accepted()
+    if msg_id == MSG_AVAILABLE_MODES:
+        msgs = identity.available_modes(vehicle)
+        index = int(param2) if _is_int(param2) else 0
+        if index > len(msgs) or index < 0:
+            return CommandResult.denied(f"AVAILABLE_MODES: no mode index {index}")
+        for msg in msgs if index == 0 else msgs[index - 1:index]:
+            _reply(cmd, msg)
+        return CommandResult.accepted()
+    if msg_id in (MSG_COMPONENT_INFORMATION, MSG_COMPONENT_METADATA):
+        return CommandResult.unsupported()
+    if msg_id not in telemetry.BUILDERS:
+        return CommandResult.unsupported()
+    msg = telemetry.build(ctx, vehicle, msg_id)
+    if msg is None:
+        if msg_id == MSG_HOME_POSITION:
+            return CommandResult.failed("")  # no home yet; clients ask again
+        return CommandResult.failed("")
+    _reply(cmd, msg)
+    return CommandResult.accepted()
+
+
+async def request_message(ctx: Context, cmd: CommandRequest) -> CommandResult:
+    if not _is_int(cmd.param1) or cmd.param1 < 0:
+        return CommandResult.denied(f"REQUEST_MESSAGE: {cmd.param1:g} is not a message id")
+    return send_message_now(ctx, cmd, int(cmd.param1), cmd.param2)
+
+
+async def get_home_position(ctx: Context, cmd: CommandRequest) -> CommandResult:
+    return send_message_now(ctx, cmd, MSG_HOME_POSITION)
+
+
+async def request_autopilot_capabilities(ctx: Context, cmd: CommandRequest) -> CommandResult:
+    return send_message_now(ctx, cmd, MSG_AUTOPILOT_VERSION)
+
+
+async def request_protocol_version(ctx: Context, cmd: CommandRequest) -> CommandResult:
+    return send_message_now(ctx, cmd, MSG_PROTOCOL_VERSION)
+
+
+async def set_message_interval(ctx: Context, cmd: CommandRequest) -> CommandResult:
+    msg_id, interval_us = cmd.param1, cmd.param2
+    if not _is_int(msg_id) or msg_id < 0:
+        return CommandResult.denied(f"SET_MESSAGE_INTERVAL: {msg_id:g} is not a message id")
+    if not math.isfinite(interval_us) or interval_us < -1:
+        return CommandResult.denied(f"SET_MESSAGE_INTERVAL: interval {interval_us:g} us is not valid")
+    if int(msg_id) not in telemetry.BUILDERS:
+        return CommandResult.denied(f"SET_MESSAGE_INTERVAL: message {int(msg_id)} is not available")
+    link = cmd.link
+    if isinstance(link, Link):
+        link.rates.set_interval_us(int(msg_id), interval_us)
+    return CommandResult.accepted()
+
+
+def register_vehicle_commands(registry: CommandRegistry) -> None:
+    """Add the built-in commands to ``registry``."""
+    r = registry.register
+    r(mav.MAV_CMD_COMPONENT_ARM_DISARM, arm_disarm, required_params=(1,), name="ARM_DISARM")
+    r(mav.MAV_CMD_DO_SET_MODE, do_set_mode, required_params=(1, 2), name="DO_SET_MODE")
+    r(mav.MAV_CMD_DO_SET_STANDARD_MODE, do_set_standard_mode, required_params=(1,),
+      name="DO_SET_STANDARD_MODE")
+    r(mav.MAV_CMD_NAV_RETURN_TO_LAUNCH, return_to_launch, name="RETURN_TO_LAUNCH")
+    r(mav.MAV_CMD_MISSION_START, mission_start, name="MISSION_START")
+    r(mav.MAV_CMD_DO_SET_MISSION_CURRENT, do_set_mission_current, required_params=(1,),
+      name="SET_MISSION_CURRENT")
+    r(mav.MAV_CMD_DO_REPOSITION, do_reposition, required_params=(5, 6), name="DO_REPOSITION")
+    r(mav.MAV_CMD_DO_CHANGE_SPEED, do_change_speed, required_params=(2,), name="DO_CHANGE_SPEED")
+    r(mav.MAV_CMD_DO_SET_HOME, do_set_home, required_params=(1,), name="DO_SET_HOME")
+    r(mav.MAV_CMD_DO_SET_SERVO, do_set_servo, required_params=(1, 2), name="DO_SET_SERVO")
+    r(mav.MAV_CMD_DO_SET_RELAY, do_set_relay, required_params=(1, 2), name="DO_SET_RELAY")
+    r(mav.MAV_CMD_REQUEST_MESSAGE, request_message, required_params=(1,), name="REQUEST_MESSAGE")
+    r(mav.MAV_CMD_SET_MESSAGE_INTERVAL, set_message_interval, required_params=(1, 2),
+      name="SET_MESSAGE_INTERVAL")
+    r(mav.MAV_CMD_GET_HOME_POSITION, get_home_position, name="GET_HOME_POSITION")
+    r(mav.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, request_autopilot_capabilities,
+      name="REQUEST_AUTOPILOT_CAPABILITIES")
+    r(mav.MAV_CMD_REQUEST_PROTOCOL_VERSION, request_protocol_version, name="REQUEST_PROTOCOL_VERSION")

@@ -1,0 +1,162 @@
+"""The MAVLink vehicle in process, seen from a pymavlink ground station on loopback UDP."""
+
+from __future__ import annotations
+
+import asyncio
+import subprocess
+import sys
+from pathlib import Path
+
+from companion.link.dialect import mav
+from companion.mavlink.commands import CommandRequest, CommandResult, register_command
+from companion.vehicle import vehicle_of
+from tests.mavlink.gcs import AsyncGcs, free_port
+from tests.mavlink.helpers import publish_nav, running_vehicle
+
+PREARM = mav.MAV_SYS_STATUS_PREARM_CHECK
+GPS = mav.MAV_SYS_STATUS_SENSOR_GPS
+
+
+async def test_heartbeat_identity_and_health(state_dir: Path) -> None:
+    port = free_port()
+    async with AsyncGcs(port) as gcs, running_vehicle(state_dir, [port]) as ctx:
+        hb = await gcs.connect()
+        assert (hb.type, hb.autopilot) == (mav.MAV_TYPE_SURFACE_BOAT, mav.MAV_AUTOPILOT_ARDUPILOTMEGA)
+        assert hb.custom_mode == 4 and hb.get_srcSystem() == 1 and hb.get_srcComponent() == 1
+        st = await gcs.wait("SYS_STATUS")
+        assert not st.onboard_control_sensors_health & PREARM  # no position yet: not armable
+        banner = [m.text for m in gcs.received if m.get_type() == "STATUSTEXT"]
+        assert any(t.startswith("usv-companion") for t in banner), banner
+
+        async def feed() -> None:
+            while True:
+                publish_nav(ctx)
+                await asyncio.sleep(0.05)
+
+        feeder = asyncio.create_task(feed())
+        try:
+            st = await gcs.wait("SYS_STATUS", lambda m: m.onboard_control_sensors_health & PREARM, 3.0)
+            assert st.onboard_control_sensors_health & GPS
+            gp = await gcs.wait("GLOBAL_POSITION_INT")
+            assert abs(gp.lat / 1e7 - 41.77) < 1e-6
+            home = await gcs.wait("HOME_POSITION", timeout_s=6.0)
+            assert abs(home.latitude / 1e7 - 41.77) < 1e-6
+        finally:
+            feeder.cancel()
+
+
+async def test_boot_statustext_names_product(state_dir: Path) -> None:
+    port = free_port()
+    async with AsyncGcs(port) as gcs, running_vehicle(state_dir, [port]):
+        await gcs.connect()
+        ack = await gcs.command(mav.MAV_CMD_REQUEST_MESSAGE, 148)
+        assert ack.result == mav.MAV_RESULT_ACCEPTED
+        ver = next(m for m in gcs.received if m.get_type() == "AUTOPILOT_VERSION")
+        assert ver.capabilities & mav.MAV_PROTOCOL_CAPABILITY_MISSION_INT
+        assert bytes(ver.flight_custom_version).startswith(b"usvcomp")
+
+
+async def test_arm_denied_with_reason_then_accepted(state_dir: Path) -> None:
+    port = free_port()
+    async with AsyncGcs(port) as gcs, running_vehicle(state_dir, [port]) as ctx:
+        await gcs.connect()
+        texts = asyncio.ensure_future(gcs.wait("STATUSTEXT", lambda m: "PreArm" in m.text))
+        ack = await gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+        assert ack.result == mav.MAV_RESULT_DENIED
+        assert "navigation" in (await texts).text
+        publish_nav(ctx)
+        ack = await gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+        assert ack.result == mav.MAV_RESULT_ACCEPTED
+        hb = await gcs.wait("HEARTBEAT", lambda m: m.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
+        assert hb.system_status == mav.MAV_STATE_ACTIVE
+        ack = await gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0)
+        assert ack.result == mav.MAV_RESULT_ACCEPTED and not vehicle_of(ctx).armed
+
+
+async def test_modes_set_refuse_and_report(state_dir: Path) -> None:
+    port = free_port()
+    async with AsyncGcs(port) as gcs, running_vehicle(state_dir, [port]):
+        await gcs.connect()
+        ack = await gcs.command(mav.MAV_CMD_DO_SET_MODE, 1, 0)
+        assert ack.result == mav.MAV_RESULT_ACCEPTED
+        await gcs.wait("HEARTBEAT", lambda m: m.custom_mode == 0)
+        reason = asyncio.ensure_future(gcs.wait("STATUSTEXT", lambda m: "unknown mode" in m.text))
+        ack = await gcs.command(mav.MAV_CMD_DO_SET_MODE, 1, 77)
+        assert ack.result == mav.MAV_RESULT_DENIED
+        await reason
+        ack = await gcs.command(mav.MAV_CMD_REQUEST_MESSAGE, 435)
+        assert ack.result == mav.MAV_RESULT_ACCEPTED
+        await asyncio.sleep(0.1)
+        names = {m.mode_name for m in gcs.received if m.get_type() == "AVAILABLE_MODES"}
+        assert {"MANUAL", "HOLD"} <= names
+        cur = await gcs.wait("CURRENT_MODE", timeout_s=2.0)
+        assert cur.custom_mode == 0
+
+
+async def test_unknown_nan_and_garbage_never_kill(state_dir: Path) -> None:
+    port = free_port()
+    async with AsyncGcs(port) as gcs, running_vehicle(state_dir, [port]):
+        await gcs.connect()
+        assert (await gcs.command(42424)).result == mav.MAV_RESULT_UNSUPPORTED
+        nan = float("nan")
+        assert (await gcs.command(mav.MAV_CMD_DO_SET_MODE, 1, nan)).result == mav.MAV_RESULT_DENIED
+        ack = await gcs.command(mav.MAV_CMD_DO_REPOSITION, -1, 1, 0, 0, nan, nan, 0)
+        assert ack.result == mav.MAV_RESULT_DENIED
+        ack = await gcs.command(mav.MAV_CMD_DO_CHANGE_SPEED, 1, 99.0, -1)
+        assert ack.result == mav.MAV_RESULT_DENIED
+        gcs.send_raw(b"\xfd\xff\x00garbage" * 50)
+        gcs.send_raw(bytes(range(256)))
+        ack = await gcs.command(mav.MAV_CMD_REQUEST_MESSAGE, 1)
+        assert ack.result == mav.MAV_RESULT_ACCEPTED  # still alive and answering
+
+
+async def test_long_command_in_progress_then_result(state_dir: Path) -> None:
+    async def slow(ctx: object, cmd: CommandRequest) -> CommandResult:
+        await asyncio.sleep(0.5)
+        cmd.progress(50)
+        await asyncio.sleep(0.1)
+        return CommandResult.accepted()
+
+    port = free_port()
+    async with AsyncGcs(port) as gcs, running_vehicle(state_dir, [port]) as ctx:
+        register_command(31013, slow, ctx=ctx)
+        await gcs.connect()
+        start = len(gcs.received)
+        ack = await gcs.command(31013)
+        assert ack.result == mav.MAV_RESULT_ACCEPTED
+        progress = [m.progress for m in gcs.received[start:]
+                    if m.get_type() == "COMMAND_ACK" and m.result == mav.MAV_RESULT_IN_PROGRESS]
+        assert progress[:1] == [0] and 50 in progress
+
+
+async def test_stream_rates_per_link(state_dir: Path) -> None:
+    a, b = free_port(), free_port()
+    async with AsyncGcs(a) as gcs_a, AsyncGcs(b) as gcs_b, running_vehicle(state_dir, [a, b]):
+        await gcs_a.connect()
+        await gcs_b.connect()
+        ack = await gcs_a.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, 0 + 2, 50_000)  # SYSTEM_TIME 20 Hz
+        assert ack.result == mav.MAV_RESULT_ACCEPTED
+        ack = await gcs_b.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, 2, -1)  # off on link b
+        assert ack.result == mav.MAV_RESULT_ACCEPTED
+        na, nb = len(gcs_a.received), len(gcs_b.received)
+        await asyncio.sleep(1.0)
+        assert gcs_a.count("SYSTEM_TIME", na) >= 15
+        assert gcs_b.count("SYSTEM_TIME", nb) == 0
+        gcs_b.send(mav.MAVLink_request_data_stream_message(1, 1, 11, 10, 1))  # VFR_HUD group at 10 Hz
+        ack = await gcs_b.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, 999, 1000)
+        assert ack.result == mav.MAV_RESULT_DENIED
+
+
+async def test_tlog_readable_by_mavlogdump(state_dir: Path) -> None:
+    port = free_port()
+    async with AsyncGcs(port) as gcs, running_vehicle(state_dir, [port]):
+        await gcs.connect()
+        await gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+        await asyncio.sleep(1.2)
+    logs = sorted((state_dir / "logs").glob("*.tlog"))
+    assert logs, "no tlog written"
+    out = subprocess.run([sys.executable, "-m", "pymavlink.tools.mavlogdump", "--types",
+                          "HEARTBEAT,COMMAND_LONG,COMMAND_ACK", str(logs[0])],
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert "HEARTBEAT" in out.stdout and "COMMAND_LONG" in out.stdout and "COMMAND_ACK" in out.stdout
