@@ -7,5 +7,7 @@ and issues come from full runs (``usv bench``).
 
 BENCHMARKS: dict[str, str] = {
     "mavlink_codec": "benchmarks.mavlink_codec",
+    "sim_plant": "benchmarks.sim_plant",
+    "sim_lockstep": "benchmarks.sim_lockstep",
 }
 """Benchmark name -> module with ``run(quick: bool) -> dict``."""

@@ -20,9 +20,10 @@ from sim_bridge.simboat import SimulatedBoat
 
 class Lockstep:
     def __init__(self, boat: SimulatedBoat, clock: SimClock, link: ByteLink, *, lockstep: bool = True,
-                 speedup: float = 0.0, ack_timeout_s: float = 2.0) -> None:
+                 speedup: float = 0.0, ack_timeout_s: float = 2.0, wait_for_first_frame: bool = True) -> None:
         self.boat, self.clock, self.link = boat, clock, link
         self.lockstep, self.speedup, self.ack_timeout_s = lockstep, speedup, ack_timeout_s
+        self.wait_for_first_frame = wait_for_first_frame
         self.missed_acks = 0
         self.steps = 0
         self._ack = asyncio.Event()
@@ -44,7 +45,8 @@ class Lockstep:
         data = boat.sample()
         if data:
             self.link.write(data)
-        if self.lockstep and boat.pending is not None:
+        waiting = self.wait_for_first_frame or boat.frames_received > 0
+        if self.lockstep and waiting and boat.pending is not None:
             try:
                 await asyncio.wait_for(self._ack.wait(), self.ack_timeout_s)
             except TimeoutError:

@@ -55,7 +55,7 @@ from sim_bridge.simboat import SimulatedBoat
 START_UNIX_S = 1_700_000_000.0
 
 
-class _Tee:
+class TeeLink:
     """Sim-side link that is the GNSS writer and the servo reader at once (two underlying links)."""
 
     def __init__(self, out: ByteLink, inp: ByteLink) -> None:
@@ -155,7 +155,7 @@ class SitlHarness:
             self.ctx.extras[GNSS_LINK_KEY] = SerialLink(gnss_pty.path, 115200, self.clock)
             self.ctx.extras[SERVO_LINK_KEY] = SerialLink(servo_pty.path, 115200, self.clock)
             gnss_out, servo_in = gnss_pty, servo_pty
-        self._sim_link = _Tee(gnss_out, servo_in)
+        self._sim_link = TeeLink(gnss_out, servo_in)
         await self._sim_link.open()
         self.lockstep = Lockstep(self.boat, self.clock, self._sim_link, speedup=self.speedup)
         if self.full_stack:
