@@ -69,6 +69,9 @@ class ReadyBanner(BaseService):
 def build_companion_services(ctx: Context) -> list[Service]:
     """The companion's services in start-up order."""
     services: list[Service] = []
+    from companion.mavlink.service import build_mavlink_services  # links, vehicle, commands, missions
+
+    services.extend(build_mavlink_services(ctx))
     from companion.payloads.service import PayloadService  # rope launcher, water sampler
 
     services.append(PayloadService(ctx))

@@ -53,8 +53,13 @@ class MavlinkService(BaseService):
         else:
             store = MissionStore(ctx.config.state_dir() / "missions")
             self.vehicle = Vehicle(ctx, store)
-        self.drive_modes_from_nav = True
-        """Call the active mode on each nav sample (set False when the control loop does it)."""
+        control_loop = ctx.extras.get("control_loop")
+        self.drive_modes_from_nav = control_loop is None
+        """Without a control loop (tests, tools), the active mode runs on each nav sample."""
+        if control_loop is not None:
+            # The active mode is the guidance+control stage of the loop: after the estimator,
+            # before the servo frame is written.
+            control_loop.add_stage("modes", self.vehicle.modes.update)  # type: ignore[attr-defined]
         register_vehicle_commands(registry_of(ctx))
         self.commands = CommandService(ctx, links, self.vehicle)
         self.params = ParamService(ctx, links, self.vehicle)
