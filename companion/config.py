@@ -155,6 +155,9 @@ SETTINGS: tuple[Setting, ...] = (
     Setting("sim.home", "41.7700,123.4300,0",
             "SITL: start position 'LAT_DEG,LON_DEG,HEADING_DEG' (default: Shenyang, as in the chapter).",
             accepted="'LAT_DEG,LON_DEG,HEADING_DEG'"),
+    Setting("models.params_file", "",
+            "Identified qLPV model (params.toml from 'usv identify'); empty: <state_dir>/model/params.toml "
+            "if present, else the shipped default identified on the simulator."),
 )
 
 SETTINGS_BY_KEY: dict[str, Setting] = {s.key: s for s in SETTINGS}

@@ -69,6 +69,10 @@ class ReadyBanner(BaseService):
 def build_companion_services(ctx: Context) -> list[Service]:
     """The companion's services in start-up order."""
     services: list[Service] = []
+    from companion.estimation.service import make_estimator_stage  # qLPV + UKF model error (Eq. 5-11)
+    from companion.loop import get_control_loop
+
+    get_control_loop(ctx).add_stage("estimator", make_estimator_stage(ctx))  # before any controller
     from companion.mavlink.service import build_mavlink_services  # links, vehicle, commands, missions
 
     services.extend(build_mavlink_services(ctx))
