@@ -55,6 +55,7 @@ class AsyncGcs:
     async def __aexit__(self, *exc: object) -> None:
         if self.transport is not None:
             self.transport.close()
+            await asyncio.sleep(0.01)  # let the loop release the socket
 
     def _datagram(self, data: bytes, addr: tuple[str, int]) -> None:
         self.peer = addr
