@@ -19,6 +19,16 @@ HELP = "run the simulated boat alone, or an open-loop manoeuvre for identificati
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_config_argument(parser)
     add_sim_arguments(parser)
+    parser.add_argument("--gnss-port", default="pty", metavar="SPEC",
+                        help="GPS-INS output: 'pty' (new pseudo-terminal, path printed), 'pty:PATH' (also "
+                             "published as the stable symlink PATH, found again after a restart), "
+                             "'udpout:HOST:PORT' (send datagrams there) or 'udp:HOST:PORT'")
+    parser.add_argument("--servo-port", default="pty", metavar="SPEC",
+                        help="servo frame input: 'pty', 'pty:PATH', 'udp:HOST:PORT' (listen there) or "
+                             "'udpout:HOST:PORT'")
+    parser.add_argument("--status-every", type=float, default=10.0, metavar="SECONDS",
+                        help="print a status line (servo frames received, speed, pulses) every so many "
+                             "simulated seconds (0: never; default 10)")
     sub = parser.add_subparsers(dest="sim_action", metavar="ACTION")
     m = sub.add_parser("maneuver", help="open-loop manoeuvre written as a CSV log (README: Log format)")
     m.add_argument("kind", choices=("sine", "zigzag", "turn", "random"))
@@ -33,13 +43,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_sim_arguments(m, with_speedup=False)
 
 
-async def run_sim(config: Config) -> None:
+async def run_sim(config: Config, gnss_port: str = "pty", servo_port: str = "pty",
+                  status_every_s: float = 10.0) -> None:
     from sim_bridge.runtime import build_sim_services
 
     clock = SimClock()
     ctx = build_context(config, clock)
+    services = build_sim_services(ctx, clock, transport="external", gnss_port=gnss_port,
+                                  servo_port=servo_port, status_every_s=status_every_s)
     print("usv sim: simulated boat ready; press Ctrl-C to stop", flush=True)
-    await Application(build_sim_services(ctx, clock, transport="pty")).run()
+    await Application(services).run()
 
 
 def run_maneuver_command(args: argparse.Namespace) -> int:
@@ -63,4 +76,8 @@ def run_maneuver_command(args: argparse.Namespace) -> int:
 def run(args: argparse.Namespace) -> int:
     if getattr(args, "sim_action", None) == "maneuver":
         return run_maneuver_command(args)
-    return run_async(run_sim(config_from_args(args)))
+    if not args.status_every >= 0.0:
+        from companion.cli import UserError
+
+        raise UserError(f"--status-every: invalid value {args.status_every}; accepted: seconds >= 0")
+    return run_async(run_sim(config_from_args(args), args.gnss_port, args.servo_port, args.status_every))
