@@ -7,6 +7,7 @@ and issues come from full runs (``usv bench``).
 
 BENCHMARKS: dict[str, str] = {
     "mavlink_codec": "benchmarks.mavlink_codec",
+    "mavlink_link": "benchmarks.mavlink_link",
     "ukf": "benchmarks.ukf",
     "sim_plant": "benchmarks.sim_plant",
     "sim_lockstep": "benchmarks.sim_lockstep",
