@@ -11,5 +11,6 @@ BENCHMARKS: dict[str, str] = {
     "ukf": "benchmarks.ukf",
     "sim_plant": "benchmarks.sim_plant",
     "sim_lockstep": "benchmarks.sim_lockstep",
+    "sim_sitl": "benchmarks.sim_sitl",
 }
 """Benchmark name -> module with ``run(quick: bool) -> dict``."""

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -42,9 +43,30 @@ SERVO_LINK_KEY = "servo_link"
 
 @dataclass
 class LoopStats:
+    """Counters and wall-clock time (``time.perf_counter``) spent per stage, for profiling
+    (``usv bench``: ``sim_sitl``); :meth:`per_sample_us` gives the mean cost per sample."""
+
     samples: int = 0
     frames: int = 0
     stage_errors: dict[str, int] = field(default_factory=dict)
+    stage_time_s: dict[str, float] = field(default_factory=dict)
+    frame_time_s: float = 0.0
+    _timed_samples: int = 0
+    _timed_frames: int = 0
+
+    def per_sample_us(self) -> dict[str, float]:
+        """Mean microseconds per sample of each stage (``nav_publish``: the ``nav`` topic's
+        listeners) and of building the servo frame, since the last :meth:`reset_timing`."""
+        n = max(1, self.samples - self._timed_samples)
+        out = {name: 1e6 * t / n for name, t in self.stage_time_s.items()}
+        out["servo_frame"] = 1e6 * self.frame_time_s / max(1, self.frames - self._timed_frames)
+        return out
+
+    def reset_timing(self) -> None:
+        """Start timing afresh (e.g. after a warm-up that compiled or cached things)."""
+        self._timed_samples, self._timed_frames = self.samples, self.frames
+        self.stage_time_s = dict.fromkeys(self.stage_time_s, 0.0)
+        self.frame_time_s = 0.0
 
 
 class ControlLoop:
@@ -64,6 +86,12 @@ class ControlLoop:
         self._payload = bus.topic(PAYLOAD_CMD_TOPIC, PayloadCommand)
         self._servo_out = bus.topic("servo_out", ServoOutputs)
         self.last_sample_s: float | None = None
+        self._safe_us: int | None = None
+        ctx.params.add_listener(self._on_param)
+
+    def _on_param(self, name: str, _value: float) -> None:
+        if name == "USV_LNCH_SAFE_US":
+            self._safe_us = None
 
     def add_stage(self, name: str, fn: StageFn, *, before: str | None = None) -> None:
         """Append a stage (or insert it before the stage named ``before``)."""
@@ -82,38 +110,56 @@ class ControlLoop:
 
     def on_nav(self, nav: NavState, ack: str = "") -> ServoOutputs:
         """Run one control step for ``nav`` and write its servo frame."""
-        self.stats.samples += 1
+        stats = self.stats
+        stats.samples += 1
         self.last_sample_s = nav.t_s
+        clock = time.perf_counter
+        times = stats.stage_time_s
+        t0 = clock()
         self._nav.publish(nav)
+        t1 = clock()
+        times["nav_publish"] = times.get("nav_publish", 0.0) + (t1 - t0)
         for name, fn in self.stages:
             try:
                 fn(nav)
             except Exception:
-                self.stats.stage_errors[name] = self.stats.stage_errors.get(name, 0) + 1
-                if self.stats.stage_errors[name] <= 3:
+                stats.stage_errors[name] = stats.stage_errors.get(name, 0) + 1
+                if stats.stage_errors[name] <= 3:
                     log.exception("control loop stage %s failed", name)
+            t0, t1 = t1, clock()
+            times[name] = times.get(name, 0.0) + (t1 - t0)
         return self.write_frame(ack)
 
-    def current_pulses(self) -> tuple[int, ...]:
-        from companion.payloads.topics import merge_into_actuator_command
+    def _launcher_safe_us(self) -> int:
+        if self._safe_us is None:
+            params = self.ctx.params
+            self._safe_us = round(params.get("USV_LNCH_SAFE_US")) if "USV_LNCH_SAFE_US" in params else 1100
+        return self._safe_us
 
-        now = self.ctx.clock.now_s()
-        cmd = self._cmd.latest() or ActuatorCommand(t_s=now)
+    def current_pulses(self) -> tuple[int, ...]:
+        """Pulses of the latest ``actuator_cmd`` with the payloads' ``payload_cmd`` merged in
+        (as :func:`companion.payloads.topics.merge_into_actuator_command`: no payload
+        command means launcher safe and pump off)."""
+        cmd = self._cmd.latest() or ActuatorCommand(t_s=self.ctx.clock.now_s())
         payload = self._payload.latest()
-        cmd = merge_into_actuator_command(cmd, payload)
-        params = self.ctx.params
-        safe = round(params.get("USV_LNCH_SAFE_US")) if "USV_LNCH_SAFE_US" in params else 1100
-        fire = payload.trigger_pulse_us if payload is not None else 1900
-        bottle = payload.valve_bottle if payload is not None else 0
-        return self.servo_map.pulses(cmd, launcher_pulse_us=fire, launcher_safe_us=safe, valve_bottle=bottle)
+        safe = self._safe_us if self._safe_us is not None else self._launcher_safe_us()
+        if payload is None:
+            return self.servo_map.pulses(cmd, launcher_pulse_us=1900, launcher_safe_us=safe, valve_bottle=0,
+                                         launcher_trigger=False, pump_on=False)
+        return self.servo_map.pulses(cmd, launcher_pulse_us=payload.trigger_pulse_us, launcher_safe_us=safe,
+                                     valve_bottle=payload.valve_bottle,
+                                     launcher_trigger=payload.launcher_trigger, pump_on=payload.pump_on)
 
     def write_frame(self, ack: str = "") -> ServoOutputs:
+        t0 = time.perf_counter()
         pulses = self.current_pulses()
         out = ServoOutputs(t_s=self.ctx.clock.now_s(), pulse_us=pulses)
         self._servo_out.publish(out)
         self.stats.frames += 1
+        frame = encode_frame(ack, pulses)
+        self.stats.frame_time_s += time.perf_counter() - t0  # the peer's handling is not ours
         if self.output is not None:
-            self.output.write(encode_frame(ack, pulses))
+            self.output.write(frame)
         return out
 
 

@@ -6,6 +6,11 @@ allows; ``speedup`` > 0 caps the rate at that multiple of real time (ArduPilot S
 ``--speedup``).  With ``lockstep=False`` the boat never waits (real-time mode for people
 and QGroundControl; pair with ``speedup=1``).  The wait for a frame is bounded by a
 wall-clock ``ack_timeout_s`` so a dead companion slows the simulation but never hangs it.
+
+Profiling counters (wall seconds, ``time.perf_counter``): ``sim_time_s`` in the simulator
+(sensor bytes and physics), ``write_time_s`` in writing the sample, which over the
+in-memory pipe includes the companion's synchronous handling (parser, control loop
+stages, servo frame); the rest of a run is the event loop and the companion's other tasks.
 """
 
 from __future__ import annotations
@@ -26,10 +31,22 @@ class Lockstep:
         self.wait_for_first_frame = wait_for_first_frame
         self.missed_acks = 0
         self.steps = 0
+        self.sim_time_s = 0.0
+        self.write_time_s = 0.0
+        self._timed_steps = 0
         self._ack = asyncio.Event()
         link.set_receiver(self._on_bytes)
         self._wall0: float | None = None
         self._sim0 = 0.0
+
+    def reset_timing(self) -> None:
+        self.sim_time_s = self.write_time_s = 0.0
+        self._timed_steps = self.steps
+
+    def timing_us(self) -> dict[str, float]:
+        """Mean wall microseconds per step in the simulator and in writing the sample."""
+        n = max(1, self.steps - self._timed_steps)
+        return {"simulator": 1e6 * self.sim_time_s / n, "sample_delivery": 1e6 * self.write_time_s / n}
 
     def _on_bytes(self, data: bytes) -> None:
         self.boat.receive(data)
@@ -42,9 +59,12 @@ class Lockstep:
     async def step(self) -> None:
         boat = self.boat
         self._ack.clear()
+        t0 = time.perf_counter()
         data = boat.sample()
+        t1 = time.perf_counter()
         if data:
             self.link.write(data)
+        t2 = time.perf_counter()
         waiting = self.wait_for_first_frame or boat.frames_received > 0
         if self.lockstep and waiting and boat.pending is not None:
             try:
@@ -52,7 +72,10 @@ class Lockstep:
             except TimeoutError:
                 self.missed_acks += 1
                 boat.pending = None
+        t3 = time.perf_counter()
         boat.advance()
+        self.sim_time_s += (t1 - t0) + (time.perf_counter() - t3)
+        self.write_time_s += t2 - t1
         self.clock.advance_to(boat.t_s)
         self.steps += 1
         await asyncio.sleep(0)  # let the companion's other tasks (links, timers) run

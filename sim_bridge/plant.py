@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sim_bridge.disturbances import DisturbanceSpec, Environment
-from sim_bridge.dynamics import SCALAR, VECTOR, jet_thrust_n, rk4_step
+from sim_bridge.dynamics import VECTOR, jet_thrust_n, make_scalar_rk4, rk4_step
 from sim_bridge.hull import BoatParams, Derived
 
 
@@ -110,6 +110,7 @@ class BoatPlant:
                  seed: int = 1, *, psi0_rad: float = 0.0, environment: Environment | None = None) -> None:
         self.params = params or BoatParams()
         self.derived = Derived.of(self.params)
+        self._rk4 = make_scalar_rk4(self.derived)
         self.env = environment or Environment(disturbances or DisturbanceSpec(), self.params, seed)
         self.engine = Engine(self.params)
         self.state = PlantState(psi_rad=psi0_rad)
@@ -129,8 +130,8 @@ class BoatPlant:
             ax, ay, an = env.wave_force(s.t_s, s.north_m, s.east_m, s.psi_rad, self.derived.mass_kg)
             tau = (wx + ax, wy + ay, wn + an)
         u0, v0 = s.u_r_mps, s.v_r_mps
-        x, y, psi, u, v, r = rk4_step(s.north_m, s.east_m, s.psi_rad, u0, v0, s.r_radps, dt_s,
-                                      jet_speed, s.nozzle_rad, tau, cn, ce, self.derived, SCALAR)
+        x, y, psi, u, v, r = self._rk4(s.north_m, s.east_m, s.psi_rad, u0, v0, s.r_radps, dt_s,
+                                       jet_speed, s.nozzle_rad, tau, cn, ce)
         s.t_s += dt_s
         s.north_m, s.east_m, s.psi_rad = x, y, psi % (2.0 * math.pi)
         s.u_dot_mps2, s.v_dot_mps2 = (u - u0) / dt_s, (v - v0) / dt_s

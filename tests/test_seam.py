@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from companion.actuators.servo import ServoMap, decode_frame, encode_frame
 from companion.bus import Bus
@@ -89,3 +91,11 @@ def test_servo_map_uses_the_channel_and_pulse_parameters() -> None:
     assert moved[1] == 1700
     frame = decode_frame(LineFramer().feed(encode_frame("12.340", moved))[0])
     assert frame is not None and frame.ack == "12.340" and frame.pulse_us == moved
+
+
+@given(st.binary(max_size=300))
+def test_word_wise_checksum_is_the_nmea_xor_of_every_byte(body: bytes) -> None:
+    expected = 0
+    for b in body:
+        expected ^= b
+    assert checksum(body) == expected

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from companion.messages import ActuatorCommand, ControlSource
 from companion.params import ParamStore
@@ -26,7 +27,7 @@ class ServoFrame:
 
 
 def encode_frame(ack: str, pulse_us: tuple[int, ...]) -> bytes:
-    return build("PUSVS," + ack + "," + ",".join(str(p) for p in pulse_us))
+    return build("PUSVS," + ack + "," + ",".join(map(str, pulse_us)))
 
 
 def decode_frame(body: str) -> ServoFrame | None:
@@ -35,20 +36,44 @@ def decode_frame(body: str) -> ServoFrame | None:
     if parts[0] != "PUSVS" or len(parts) != 2 + N_CHANNELS:
         return None
     try:
-        pulses = tuple(int(p) for p in parts[2:])
+        pulses = tuple(map(int, parts[2:]))
     except ValueError:
         return None
-    if not all(500 <= p <= 2500 for p in pulses):
+    if min(pulses) < 500 or max(pulses) > 2500:
         return None
     return ServoFrame(parts[1], pulses)
 
 
+class _Resolved(NamedTuple):
+    """The parameter values the mapping needs, read once per parameter change (speed)."""
+
+    noz_max_rad: float
+    noz_rev: bool
+    noz_trim: float
+    noz_span_stbd: float
+    noz_span_port: float
+    ch_nozzle: int
+    thr_lo: float
+    thr_span: float
+    ch_throttle: int
+    sw_off: int
+    sw_on: int
+    ch_ignition: int
+    ch_selector: int
+    ch_launcher: int
+    ch_pump: int
+    ch_valve: int
+
+
 class ServoMap:
-    """Maps an :class:`ActuatorCommand` to pulses using the USV_CH_*/USV_*_PWM_* parameters."""
+    """Maps an :class:`ActuatorCommand` to pulses using the USV_CH_*/USV_*_PWM_* parameters.
+
+    Parameter values are cached and re-read after any parameter change (store listener).
+    """
 
     def __init__(self, params: ParamStore) -> None:
         self.params = params
-        self._cache: tuple[float, ...] | None = None
+        self._cache: _Resolved | None = None
         params.add_listener(lambda _n, _v: self._invalidate())
 
     def _invalidate(self) -> None:
@@ -57,26 +82,44 @@ class ServoMap:
     def _p(self, name: str, default: float) -> float:
         return self.params.get(name) if name in self.params else default
 
-    def pulses(self, cmd: ActuatorCommand, launcher_pulse_us: int = 1900, launcher_safe_us: int = 1100,
-               valve_bottle: int = 0) -> tuple[int, ...]:
+    def _resolve(self) -> _Resolved:
         p = self._p
-        out = [1500] * N_CHANNELS
-        noz_max = math.radians(p("USV_NOZ_MAX_DEG", 60.0))
-        frac = max(-1.0, min(1.0, cmd.nozzle_rad / noz_max))
-        if p("USV_NOZ_REV", 0) >= 1:
-            frac = -frac
         trim = p("USV_NOZ_PWM_TRIM", 1500)
-        span = (p("USV_NOZ_PWM_MAX", 1900) - trim) if frac >= 0 else (trim - p("USV_NOZ_PWM_MIN", 1100))
-        out[int(p("USV_CH_NOZZLE", 1)) - 1] = round(trim + frac * span)
-        thr = max(0.0, min(1.0, cmd.throttle))
         lo, hi = p("USV_THR_PWM_MIN", 1100), p("USV_THR_PWM_MAX", 1900)
-        out[int(p("USV_CH_THROTTLE", 3)) - 1] = round(lo + thr * (hi - lo))
-        off, on = round(p("USV_SW_PWM_OFF", 1100)), round(p("USV_SW_PWM_ON", 1900))
-        out[int(p("USV_CH_IGNITION", 5)) - 1] = on if cmd.ignition_on else off
-        out[int(p("USV_CH_SELECTOR", 6)) - 1] = on if cmd.source == ControlSource.COMPANION else off
-        launcher_us = launcher_pulse_us if cmd.launcher_trigger else launcher_safe_us
-        out[int(p("USV_CH_LAUNCHER", 7)) - 1] = launcher_us
-        out[int(p("USV_CH_PUMP", 8)) - 1] = on if cmd.pump_on else off
-        bottle = max(0, min(4, valve_bottle)) if cmd.pump_on else 0
-        out[int(p("USV_CH_VALVE", 4)) - 1] = 1000 + 200 * bottle
+        self._cache = _Resolved(
+            noz_max_rad=math.radians(p("USV_NOZ_MAX_DEG", 60.0)), noz_rev=p("USV_NOZ_REV", 0) >= 1,
+            noz_trim=trim, noz_span_stbd=p("USV_NOZ_PWM_MAX", 1900) - trim,
+            noz_span_port=trim - p("USV_NOZ_PWM_MIN", 1100), ch_nozzle=int(p("USV_CH_NOZZLE", 1)) - 1,
+            thr_lo=lo, thr_span=hi - lo, ch_throttle=int(p("USV_CH_THROTTLE", 3)) - 1,
+            sw_off=round(p("USV_SW_PWM_OFF", 1100)), sw_on=round(p("USV_SW_PWM_ON", 1900)),
+            ch_ignition=int(p("USV_CH_IGNITION", 5)) - 1, ch_selector=int(p("USV_CH_SELECTOR", 6)) - 1,
+            ch_launcher=int(p("USV_CH_LAUNCHER", 7)) - 1, ch_pump=int(p("USV_CH_PUMP", 8)) - 1,
+            ch_valve=int(p("USV_CH_VALVE", 4)) - 1)
+        return self._cache
+
+    def pulses(self, cmd: ActuatorCommand, launcher_pulse_us: int = 1900, launcher_safe_us: int = 1100,
+               valve_bottle: int = 0, *, launcher_trigger: bool | None = None,
+               pump_on: bool | None = None) -> tuple[int, ...]:
+        """Pulse widths of channels 1-8; ``launcher_trigger`` / ``pump_on`` (when given)
+        replace the command's own fields (the payloads' wishes merged in by the loop)."""
+        c = self._cache or self._resolve()
+        if launcher_trigger is None:
+            launcher_trigger = cmd.launcher_trigger
+        if pump_on is None:
+            pump_on = cmd.pump_on
+        out = [1500] * N_CHANNELS
+        frac = max(-1.0, min(1.0, cmd.nozzle_rad / c.noz_max_rad))
+        if c.noz_rev:
+            frac = -frac
+        span = c.noz_span_stbd if frac >= 0 else c.noz_span_port
+        out[c.ch_nozzle] = round(c.noz_trim + frac * span)
+        thr = max(0.0, min(1.0, cmd.throttle))
+        out[c.ch_throttle] = round(c.thr_lo + thr * c.thr_span)
+        off, on = c.sw_off, c.sw_on
+        out[c.ch_ignition] = on if cmd.ignition_on else off
+        out[c.ch_selector] = on if cmd.source == ControlSource.COMPANION else off
+        out[c.ch_launcher] = launcher_pulse_us if launcher_trigger else launcher_safe_us
+        out[c.ch_pump] = on if pump_on else off
+        bottle = max(0, min(4, valve_bottle)) if pump_on else 0
+        out[c.ch_valve] = 1000 + 200 * bottle
         return tuple(out)

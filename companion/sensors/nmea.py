@@ -13,12 +13,23 @@ MAX_SENTENCE_BYTES = 200
 """Longest accepted sentence; NMEA's limit is 82 but the XW-GI $GPFPD is longer."""
 
 
+_ZEROS = bytes(8)
+
+
 def checksum(body: bytes) -> int:
-    """XOR of the bytes between ``$`` and ``*``."""
-    c = 0
-    for b in body:
-        c ^= b
-    return c
+    """XOR of the bytes between ``$`` and ``*``.
+
+    XOR is associative, so the bytes are XORed eight at a time as 64-bit words (zero
+    padded) and the word folded to one byte: about 8x fewer Python-level operations than
+    a byte loop, which matters at 100 Hz x several sentences in lockstep SITL.
+    """
+    x = 0
+    for word in memoryview(body + _ZEROS[:-len(body) % 8]).cast("Q"):
+        x ^= word
+    x ^= x >> 32
+    x ^= x >> 16
+    x ^= x >> 8
+    return x & 0xFF
 
 
 def build(body: str) -> bytes:

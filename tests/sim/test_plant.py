@@ -143,3 +143,22 @@ def test_batch_plant_matches_single_boats() -> None:
         assert batch.north_m[i] == pytest.approx(p.state.north_m, abs=1e-9)
         assert batch.psi_rad[i] == pytest.approx(p.state.psi_rad, abs=1e-9)
         assert batch.u_r_mps[i] == pytest.approx(p.state.u_r_mps, abs=1e-9)
+
+
+def test_specialised_scalar_rk4_is_bit_identical_to_the_generic_equations() -> None:
+    """The fast one-boat step (make_scalar_rk4) must not change behaviour: same floats."""
+    import random
+
+    from sim_bridge.dynamics import SCALAR, make_scalar_rk4, rk4_step
+    from sim_bridge.hull import BoatParams, Derived
+
+    rng = random.Random(11)
+    for payload_kg in (0.0, 70.0):
+        d = Derived.of(BoatParams().with_payload(payload_kg))
+        fast = make_scalar_rk4(d)
+        for _ in range(300):
+            args = (rng.uniform(-50, 50), rng.uniform(-50, 50), rng.uniform(0, 6.3), rng.uniform(-2, 12),
+                    rng.uniform(-2, 2), rng.uniform(-2, 2), 0.01, rng.uniform(0, 25), rng.uniform(-1, 1),
+                    (rng.uniform(-50, 50), rng.uniform(-50, 50), rng.uniform(-30, 30)),
+                    rng.uniform(-1, 1), rng.uniform(-1, 1))
+            assert fast(*args) == rk4_step(*args, d, SCALAR)

@@ -124,3 +124,18 @@ async def test_sampler_fills_the_selected_bottle_while_the_pump_runs() -> None:
         assert b[2] == pytest.approx(250.0, rel=0.05) and b[0] == b[1] == b[3] == 0.0
         sensed = h.ctx.bus.topic("payload_sensors", PayloadSensors).latest()
         assert sensed is not None and sensed.bottle_volume_ml[2] == pytest.approx(b[2], abs=0.1)
+
+
+async def test_the_control_loop_reports_what_each_stage_costs() -> None:
+    import time
+
+    async with SitlHarness() as h:
+        drive(h, 0.5)
+        h.loop.add_stage("slow", lambda nav: time.sleep(0.0005))
+        await h.run_for(0.5)
+        h.loop.stats.reset_timing()
+        await h.run_for(0.5)
+        cost = h.loop.stats.per_sample_us()
+        assert set(cost) == {"nav_publish", "test-driver", "slow", "servo_frame"}
+        assert cost["slow"] >= 500.0 and cost["test-driver"] < cost["slow"]
+        assert h.lockstep is not None and h.lockstep.timing_us()["sample_delivery"] >= 500.0

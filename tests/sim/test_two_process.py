@@ -62,6 +62,14 @@ class Proc:
                 return line
         raise AssertionError(f"no line with {needle!r} within {timeout_s} s; got {self.all[-10:]}")
 
+    def drain(self) -> None:
+        """Forget lines printed so far (status lines from before the companion connected)."""
+        while True:
+            try:
+                self.all.append(self.lines.get_nowait())
+            except queue.Empty:
+                return
+
     def stop(self) -> int:
         if self.p.poll() is None:
             self.p.send_signal(signal.SIGINT)
@@ -131,6 +139,7 @@ def test_companion_process_drives_the_sim_process_over_ptys_and_survives_a_sim_r
         mav = mavutil.mavlink_connection(f"tcp:127.0.0.1:{tcp}", source_system=255)
         try:
             wait_position(mav, HOME_A, 8.0)
+            sim.drain()
             frames = servo_frames(sim.wait_line("servo_frames=", 3.0))
             later = servo_frames(sim.wait_line("servo_frames=", 3.0))
             assert later - frames >= 50, "the simulator should receive ~100 servo frames per second"
@@ -174,6 +183,7 @@ def test_companion_and_sim_over_udp(tmp_path: Path, usv_env: dict[str, str]) -> 
             wait_position(mav, HOME_B, 8.0)
         finally:
             mav.close()
+        sim.drain()
         frames = servo_frames(sim.wait_line("servo_frames=", 3.0))
         assert servo_frames(sim.wait_line("servo_frames=", 3.0)) - frames >= 50
     finally:
