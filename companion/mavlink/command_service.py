@@ -85,6 +85,11 @@ class CommandService:
     async def _execute(self, link: Link, cmd: CommandRequest, src: tuple[int, int]) -> None:
         result = await self._run_handler(link, cmd, src)
         self.send_ack(link, cmd.command, result.result, src, result_param2=result.result_param2)
+        if result.after_ack is not None:
+            try:
+                result.after_ack()
+            except Exception:
+                log.exception("after-ack action of command %d failed", cmd.command)
         if result.reason and result.result not in (MAV_RESULT.ACCEPTED, MAV_RESULT.IN_PROGRESS):
             self.vehicle.status(result.reason, SEVERITY_WARNING)
         elif result.reason:

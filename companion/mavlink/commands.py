@@ -121,6 +121,8 @@ class CommandResult:
     result: int
     reason: str = ""
     result_param2: int = 0
+    after_ack: Callable[[], None] | None = field(default=None, compare=False, repr=False)
+    """Run right after the COMMAND_ACK is sent (REQUEST_MESSAGE: the message follows its ack)."""
 
     @classmethod
     def accepted(cls, reason: str = "") -> CommandResult:

@@ -14,7 +14,7 @@ from companion.app import Context
 from companion.link.dialect import mav
 from companion.link.endpoint import Link
 from companion.mavlink import identity, telemetry
-from companion.mavlink.commands import CommandRegistry, CommandRequest, CommandResult
+from companion.mavlink.commands import MAV_RESULT, CommandRegistry, CommandRequest, CommandResult
 from companion.mission.validate import MAX_SPEED_MPS
 from companion.vehicle import FORCE_MAGIC, GuidedTarget, vehicle_of
 
@@ -201,40 +201,36 @@ async def do_set_relay(ctx: Context, cmd: CommandRequest) -> CommandResult:
     return CommandResult.accepted()
 
 
-def protocol_version_msg() -> Any:
-    return mav.MAVLink_protocol_version_message(200, 100, 200, [0] * 8, [0] * 8)
-
-
 def send_message_now(ctx: Context, cmd: CommandRequest, msg_id: int, param2: float = 0.0) -> CommandResult:
-    """Answer REQUEST_MESSAGE-like commands on the requesting link."""
+    """Answer REQUEST_MESSAGE-like commands: ACK first, then the message on the requesting link."""
     vehicle = vehicle_of(ctx)
     links = ctx.extras.get("links")
     system_id = getattr(links, "system_id", 1)
+    msgs: list[Any]
     if msg_id == MSG_AUTOPILOT_VERSION:
-        _reply(cmd, identity.autopilot_version(vehicle, system_id))
-        return CommandResult.accepted()
-    if msg_id == MSG_PROTOCOL_VERSION:
-        _reply(cmd, protocol_version_msg())
-        return CommandResult.accepted()
-    if msg_id == MSG_AVAILABLE_MODES:
-        msgs = identity.available_modes(vehicle)
+        msgs = [identity.autopilot_version(vehicle, system_id)]
+    elif msg_id == MSG_AVAILABLE_MODES:
+        all_modes = identity.available_modes(vehicle)
         index = int(param2) if _is_int(param2) else 0
-        if index > len(msgs) or index < 0:
+        if index > len(all_modes) or index < 0:
             return CommandResult.denied(f"AVAILABLE_MODES: no mode index {index}")
-        for msg in msgs if index == 0 else msgs[index - 1:index]:
-            _reply(cmd, msg)
-        return CommandResult.accepted()
-    if msg_id in (MSG_COMPONENT_INFORMATION, MSG_COMPONENT_METADATA):
+        msgs = all_modes if index == 0 else all_modes[index - 1:index]
+    elif msg_id in (MSG_PROTOCOL_VERSION, MSG_COMPONENT_INFORMATION, MSG_COMPONENT_METADATA) \
+            or msg_id not in telemetry.BUILDERS:
+        # PROTOCOL_VERSION is not in pymavlink's message set (QGC then relies on the MAVLink 2
+        # frames it already sees); component metadata is not served: clean NACK for all three.
         return CommandResult.unsupported()
-    if msg_id not in telemetry.BUILDERS:
-        return CommandResult.unsupported()
-    msg = telemetry.build(ctx, vehicle, msg_id)
-    if msg is None:
-        if msg_id == MSG_HOME_POSITION:
-            return CommandResult.failed("")  # no home yet; clients ask again
-        return CommandResult.failed("")
-    _reply(cmd, msg)
-    return CommandResult.accepted()
+    else:
+        msg = telemetry.build(ctx, vehicle, msg_id)
+        if msg is None:  # e.g. HOME_POSITION before the first fix: clients ask again
+            return CommandResult.failed("")
+        msgs = [msg]
+
+    def send() -> None:
+        for m in msgs:
+            _reply(cmd, m)
+
+    return CommandResult(MAV_RESULT.ACCEPTED, after_ack=send)
 
 
 async def request_message(ctx: Context, cmd: CommandRequest) -> CommandResult:
@@ -249,10 +245,6 @@ async def get_home_position(ctx: Context, cmd: CommandRequest) -> CommandResult:
 
 async def request_autopilot_capabilities(ctx: Context, cmd: CommandRequest) -> CommandResult:
     return send_message_now(ctx, cmd, MSG_AUTOPILOT_VERSION)
-
-
-async def request_protocol_version(ctx: Context, cmd: CommandRequest) -> CommandResult:
-    return send_message_now(ctx, cmd, MSG_PROTOCOL_VERSION)
 
 
 async def set_message_interval(ctx: Context, cmd: CommandRequest) -> CommandResult:
@@ -291,4 +283,3 @@ def register_vehicle_commands(registry: CommandRegistry) -> None:
     r(mav.MAV_CMD_GET_HOME_POSITION, get_home_position, name="GET_HOME_POSITION")
     r(mav.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, request_autopilot_capabilities,
       name="REQUEST_AUTOPILOT_CAPABILITIES")
-    r(mav.MAV_CMD_REQUEST_PROTOCOL_VERSION, request_protocol_version, name="REQUEST_PROTOCOL_VERSION")
