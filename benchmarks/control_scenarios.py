@@ -28,8 +28,8 @@ from companion.control.target import ControlTarget
 from companion.guidance.circle import CircleTracker
 from companion.guidance.geo import wrap_pi
 from companion.guidance.los import LosFollower, LosType
-from companion.guidance.params import circle_gains, los_gains
-from companion.guidance.waypoints import LegConfig, LegNavigator
+from companion.guidance.params import circle_gains, leg_config, los_gains
+from companion.guidance.waypoints import LegNavigator
 from companion.models.qlpv import QLPVModel
 
 WEATHER = {"wind_mps": 3.0, "wind_from_deg": 45.0, "waves_hs_m": 0.3}
@@ -83,20 +83,17 @@ def square(ctrl_type: int, model: QLPVModel, seed: int, quick: bool = False) -> 
     env = Environment(seed=seed, current_mps=0.5, current_toward_deg=90.0, **WEATHER)
     rig = Rig(ctrl_type, env, model)
     side = 50.0
-    corners = [(0.0, 0.0), (side, 0.0), (side, side), (0.0, side), (0.0, 0.0)]
-    route = [(-30.0, 0.0), *corners, (side, 0.0)] if not quick else [(-30.0, 0.0), *corners[:3], (side, 10.0)]
+    corners = [(0.0, 0.0), (side, 0.0), (side, side), (0.0, side), (0.0, 0.0), (side, 0.0)]
+    n_scored = 2 if quick else 4
+    route = [(-30.0, 0.0), *corners[: n_scored + 2]]
+    scored_legs = [(corners[i], corners[i + 1]) for i in range(4)]
     p = rig.params
     nav_leg = LegNavigator(LosFollower(los_gains(p), LosType(int(p.get("USV_LOS_TYPE")))),
-                           LegConfig(speed_mps=5.0, accept_radius_m=2.0,
-                                     turn_rate_max_radps=math.radians(p.get("USV_TURN_MAX"))))
-    legs = list(range(len(route) - 1))
-    scored_legs = [(corners[i], corners[i + 1]) for i in range(len(corners) - 1)]
+                           leg_config(p, speed_mps=5.0, accept_radius_m=2.0))
     mid: list[float] = []
     whole: list[float] = []
-    started = False
-    for i in legs:
-        nxt = route[i + 2] if i + 2 < len(route) else None
-        nav_leg.set_leg(route[i], route[i + 1], nxt)
+    for i in range(n_scored + 1):
+        nav_leg.set_leg(route[i], route[i + 1], route[i + 2])
         for _ in range(int(60.0 / 0.01)):
             nav = rig.nav()
             pos = rig.pos_ne()
@@ -105,15 +102,10 @@ def square(ctrl_type: int, model: QLPVModel, seed: int, quick: bool = False) -> 
             if st.reached:
                 break
             rig.step(st.target)
-            if i >= 1 and (i - 1) < len(scored_legs) and route[i] == scored_legs[i - 1][0] and \
-                    route[i + 1] == scored_legs[i - 1][1]:
-                started = True
+            if i >= 1:
+                whole.append(min(_dist_to_segment(pos, a, b) for a, b in scored_legs))
                 if 10.0 <= st.errors.along_m <= st.errors.leg_length_m - 10.0:
                     mid.append(abs(st.errors.cross_m))
-            if started:
-                whole.append(min(_dist_to_segment(pos, a, b) for a, b in scored_legs))
-        if i >= len(scored_legs):
-            break
     return {"mid_leg_rms_m": round(_rms(mid), 3), "mid_leg_max_m": round(max(mid), 3),
             "whole_rms_m": round(_rms(whole), 3), "whole_max_m": round(max(whole), 3),
             "duration_s": round(rig.t_s, 1)}

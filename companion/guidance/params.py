@@ -12,6 +12,7 @@ from typing import Protocol
 from companion.guidance.circle import CircleGains
 from companion.guidance.los import LosGains, LosType
 from companion.guidance.station import StationGains
+from companion.guidance.waypoints import LegConfig
 from companion.params import ParamDef
 
 PARAMS: tuple[ParamDef, ...] = (
@@ -19,14 +20,17 @@ PARAMS: tuple[ParamDef, ...] = (
              "Path following law (Fossen 2021 sec. 12.4): 0 = integral LOS, 1 = adaptive LOS. Both crab "
              "into a cross-current instead of drifting off the line.", is_int=True,
              choices=((0, "ILOS"), (1, "ALOS"))),
-    ParamDef("USV_LOS_DELTA", 8.0, 1.0, 100.0, "m", "LOS look-ahead distance Delta."),
-    ParamDef("USV_LOS_KI", 0.02, 0.0, 1.0, "1/m", "ILOS integral gain Ki."),
+    ParamDef("USV_LOS_DELTA", 9.0, 1.0, 100.0, "m", "LOS look-ahead distance Delta."),
+    ParamDef("USV_LOS_KI", 0.04, 0.0, 1.0, "1/m", "ILOS integral gain Ki."),
     ParamDef("USV_ALOS_GAMMA", 0.002, 0.0, 0.1, "rad/(m s)", "ALOS crab-angle adaptation gain gamma."),
-    ParamDef("USV_CIRC_K", 2.0, 0.1, 20.0, "", "Point tracking: convergence gain onto the circle."),
-    ParamDef("USV_CIRC_KI", 0.05, 0.0, 1.0, "1/s", "Point tracking: integral gain on the radial error."),
-    ParamDef("USV_CIRC_SPD", 2.0, 0.5, 10.0, "m/s", "Point tracking: speed while circling a point."),
-    ParamDef("USV_TURN_RAD", 1.375, 0.5, 50.0, "m",
-             "Minimum turning radius of the boat; default circle radius for point tracking."),
+    ParamDef("USV_WP_TURN_SPD", 2.5, 0.5, 10.0, "m/s",
+             "Speed through corners sharper than 30 degrees (the boat slows down before them)."),
+    ParamDef("USV_CIRC_K", 1.0, 0.1, 20.0, "", "Point tracking: convergence gain onto the circle."),
+    ParamDef("USV_CIRC_KI", 0.0, 0.0, 1.0, "1/s", "Point tracking: integral gain on the radial error."),
+    ParamDef("USV_CIRC_SPD", 1.6, 0.5, 10.0, "m/s", "Point tracking: speed while circling a point."),
+    ParamDef("USV_TURN_RAD", 2.0, 0.5, 50.0, "m",
+             "Smallest circle the boat holds under control (default and minimum radius of point tracking). "
+             "At full nozzle the simulated boat turns on about 1.3 m; 2 m leaves steering margin."),
     ParamDef("USV_STN_P", 0.25, 0.01, 2.0, "1/s", "Station keeping: ground speed per metre of error."),
     ParamDef("USV_STN_I", 0.01, 0.0, 0.5, "1/s^2", "Station keeping: current-estimate integral gain."),
     ParamDef("USV_STN_VMAX", 2.0, 0.2, 10.0, "m/s", "Station keeping: largest approach speed."),
@@ -40,6 +44,12 @@ class ParamReader(Protocol):
 def los_gains(p: ParamReader) -> LosGains:
     return LosGains(lookahead_m=p.get("USV_LOS_DELTA"), ki=p.get("USV_LOS_KI"), gamma=p.get("USV_ALOS_GAMMA"),
                     beta_max_rad=math.radians(30.0))
+
+
+def leg_config(p: ParamReader, speed_mps: float, accept_radius_m: float) -> LegConfig:
+    return LegConfig(speed_mps=speed_mps, accept_radius_m=accept_radius_m,
+                     turn_speed_mps=p.get("USV_WP_TURN_SPD"),
+                     turn_rate_max_radps=math.radians(p.get("USV_TURN_MAX")))
 
 
 def circle_gains(p: ParamReader) -> CircleGains:

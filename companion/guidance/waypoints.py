@@ -30,6 +30,8 @@ class LegConfig:
     sharp_turn_rad: float = math.radians(30.0)
     turn_rate_max_radps: float = math.radians(45.0)
     decel_mps2: float = 0.4
+    yaw_lag_s: float = 2.0
+    """Time the boat needs to build up its turn rate; the turn starts this much earlier."""
     """Planned deceleration before a corner (sets where slowing starts)."""
 
 
@@ -74,7 +76,7 @@ class LegNavigator:
             return c.speed_mps, 0.0
         v = min(c.speed_mps, c.turn_speed_mps)
         radius = v / c.turn_rate_max_radps
-        return v, radius * math.tan(0.5 * min(turn, math.radians(150.0)))
+        return v, radius * math.tan(0.5 * min(turn, math.radians(150.0))) + v * c.yaw_lag_s * turn / math.pi
 
     def update(self, pos_ne: Point, speed_mps: float, dt_s: float,
                course_rad: float | None = None) -> LegStep:

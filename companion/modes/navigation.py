@@ -18,9 +18,9 @@ from companion.control.target import ControlTarget
 from companion.guidance.circle import CircleTracker
 from companion.guidance.geo import LocalFrame, distance_bearing, wrap_pi
 from companion.guidance.los import LosFollower, LosType
-from companion.guidance.params import circle_gains, los_gains, station_gains
+from companion.guidance.params import circle_gains, leg_config, los_gains, station_gains
 from companion.guidance.station import StationKeeper
-from companion.guidance.waypoints import LegConfig, LegNavigator
+from companion.guidance.waypoints import LegNavigator
 from companion.messages import NavState
 from companion.modes.base import Mode, NavTarget, requires_position
 
@@ -58,8 +58,7 @@ class GotoTask:
         self.end = end
         radius = accept_radius_m if accept_radius_m and accept_radius_m > 0 else param(params, "WP_RADIUS")
         los = LosFollower(los_gains(params), LosType(int(params.get("USV_LOS_TYPE"))))
-        self.nav = LegNavigator(los, LegConfig(speed_mps=speed_mps, accept_radius_m=radius,
-                                               turn_rate_max_radps=math.radians(params.get("USV_TURN_MAX"))))
+        self.nav = LegNavigator(los, leg_config(params, speed_mps, radius))
         nxt = self.frame.to_ne(*next_point) if next_point is not None else None
         self.nav.set_leg((0.0, 0.0), self.frame.to_ne(*end), nxt)
         self.point = end
