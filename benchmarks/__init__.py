@@ -12,5 +12,6 @@ BENCHMARKS: dict[str, str] = {
     "sim_plant": "benchmarks.sim_plant",
     "sim_lockstep": "benchmarks.sim_lockstep",
     "sim_sitl": "benchmarks.sim_sitl",
+    "control": "benchmarks.control",
 }
 """Benchmark name -> module with ``run(quick: bool) -> dict``."""

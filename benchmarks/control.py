@@ -1,0 +1,54 @@
+"""Control figures of issue 6 for both controller families, side by side, same plant and seeds.
+
+For each scenario of :mod:`benchmarks.control_scenarios` and each seed, the PID family
+(USV_CTRL_TYPE 0) and the active-model family (1: qLPV inversion + UKF delta_nu compensation)
+run on the simulated plant.  Reported per family: the worst value over the seeds of every
+figure, the target from the issue, whether it is met, and whether the active-model controller
+beats PID on it.  The qLPV model is identified from the plant by least squares
+(:mod:`benchmarks.control_ident`); nothing here is copied from the chapter.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+from benchmarks.control_ident import plant_model
+from benchmarks.control_scenarios import SCENARIOS
+from companion.control.params import CTRL_ACTIVE_MODEL, CTRL_PID
+
+TARGETS: dict[str, dict[str, float]] = {
+    "course": {"overshoot_deg": 5.0, "steady_rms_deg": 1.5},
+    "speed": {"overshoot_pct": 10.0, "steady_rms_mps": 0.1},
+    "square": {"mid_leg_rms_m": 0.2, "mid_leg_max_m": 0.5, "whole_max_m": 2.0},
+    "points": {"radial_max_m": 0.6, "dist_max_m": 2.5},
+}
+"""Upper limits from the issue's "done when" list (lower is better for every figure)."""
+
+
+def run(quick: bool) -> dict[str, Any]:
+    t0 = time.perf_counter()
+    model = plant_model()
+    seeds = (1,) if quick else (1, 2, 3)
+    out: dict[str, Any] = {"seeds": list(seeds), "quick": quick}
+    all_beaten = True
+    all_met_am = True
+    for name, scenario in SCENARIOS.items():
+        worst: dict[int, dict[str, float]] = {}
+        for kind in (CTRL_PID, CTRL_ACTIVE_MODEL):
+            per_seed = [scenario(kind, model, seed, quick) for seed in seeds]
+            worst[kind] = {k: max(float(r[k]) for r in per_seed) for k in TARGETS[name]}
+        figures = {}
+        for key, limit in TARGETS[name].items():
+            pid, am = worst[CTRL_PID][key], worst[CTRL_ACTIVE_MODEL][key]
+            better = am < pid
+            all_beaten &= better
+            all_met_am &= am <= limit
+            figures[key] = {"pid": round(pid, 3), "active_model": round(am, 3), "target_max": limit,
+                            "pid_meets": pid <= limit, "active_model_meets": am <= limit,
+                            "active_model_better": better}
+        out[name] = figures
+    out["active_model_beats_pid_everywhere"] = all_beaten
+    out["active_model_meets_all_targets"] = all_met_am
+    out["wall_s"] = round(time.perf_counter() - t0, 1)
+    return out
