@@ -148,8 +148,8 @@ SETTINGS: tuple[Setting, ...] = (
             min=0, max=2**31 - 1),
     Setting("sim.wind", "0,0", "SITL: wind 'SPEED_MPS,FROM_DEG' (meteorological convention).",
             accepted="'SPEED_MPS,FROM_DEG'"),
-    Setting("sim.current", "0,0", "SITL: current 'SPEED_MPS,TOWARD_DEG' (oceanographic convention).",
-            accepted="'SPEED_MPS,TOWARD_DEG'"),
+    Setting("sim.current", "0,0", "SITL: current 'SPEED_MPS,TOWARD_DEG[,VAR]' (oceanographic convention; "
+            "VAR 0..1: slowly varying).", accepted="'SPEED_MPS,TOWARD_DEG[,VAR]'"),
     Setting("sim.waves", "0", "SITL: waves 'HS_M[,TP_S]' (significant height, peak period).",
             accepted="'HS_M[,TP_S]'"),
     Setting("sim.home", "41.7700,123.4300,0",

@@ -7,9 +7,12 @@ Conventions (the ``--wind``, ``--current`` and ``--waves`` flags):
   (intensity ``gust_ratio`` of the mean, time constant ``gust_tau_s``).  Forces use
   Fossen's wind coefficients (Fossen 2021 Sec. 10.1):
   X = q C_X(gamma) A_F, Y = q C_Y(gamma) A_L, N = q C_N(gamma) A_L L, q = rho_air V_rw^2 / 2.
-* current ``SPEED_MPS,TOWARD_DEG``: oceanographic, the direction the water flows TOWARD.
-  Optionally slowly varying (Gauss-Markov on speed and direction).  It enters through the
-  relative velocity (irrotational current: the hull moves with the water).
+* current ``SPEED_MPS,TOWARD_DEG[,VAR]``: oceanographic, the direction the water flows
+  TOWARD.  It enters through the relative velocity (irrotational current: the hull moves
+  with the water).  ``VAR`` in [0, 1] (default 0: steady) makes it slowly varying: speed
+  and direction are first-order Gauss-Markov processes around SPEED and TOWARD with
+  standard deviations ``VAR * SPEED`` (m/s) and ``VAR`` (rad, i.e. ~57 deg x VAR) and a
+  correlation time of ``CURRENT_TAU_S`` (minutes, like eddies in a flooded river).
 * waves ``HS_M[,TP_S[,TOWARD_DEG]]``: a long-crested JONSWAP sea (gamma 3.3) as a sum of
   ``n_components`` sinusoids with seeded random phases.  First-order force: the hull
   slides down the local surface slope (Froude-Krylov, -m g grad(zeta), attenuated by
@@ -42,7 +45,12 @@ class DisturbanceSpec:
     wave_toward_rad: float | None = None
     gust_ratio: float = 0.15
     gust_tau_s: float = 5.0
-    current_varying: bool = False
+    current_var: float = 0.0
+    """Relative variability of the current (0: steady), see the module docstring."""
+
+
+CURRENT_TAU_S = 120.0
+"""Correlation time of the slowly varying current (s)."""
 
 
 def _numbers(flag: str, text: str, accepted: str, n_min: int, n_max: int) -> list[float]:
@@ -66,12 +74,23 @@ def parse_wind(text: str) -> tuple[float, float]:
 
 
 def parse_current(text: str) -> tuple[float, float]:
-    """``SPEED_MPS,TOWARD_DEG`` -> (speed m/s, toward rad); raises ConfigError naming --current."""
-    accepted = "'SPEED_MPS,TOWARD_DEG' with speed in [0, 5] m/s, e.g. '0.5,90'"
-    speed, toward_deg = _numbers("--current", text, accepted, 2, 2)
+    """``SPEED_MPS,TOWARD_DEG[,VAR]`` -> (speed m/s, toward rad); raises ConfigError naming --current."""
+    speed, toward, _var = parse_current_var(text)
+    return speed, toward
+
+
+def parse_current_var(text: str) -> tuple[float, float, float]:
+    """``SPEED_MPS,TOWARD_DEG[,VAR]`` -> (speed m/s, toward rad, relative variability)."""
+    accepted = ("'SPEED_MPS,TOWARD_DEG[,VAR]' with speed in [0, 5] m/s and VAR in [0, 1] "
+                "(slowly varying; 0 steady), e.g. '0.5,90' or '0.5,90,0.2'")
+    values = _numbers("--current", text, accepted, 2, 3)
+    speed, toward_deg = values[0], values[1]
     if not 0.0 <= speed <= 5.0:
         raise ConfigError(f"--current: speed {speed:g} m/s out of range; accepted: {accepted}")
-    return speed, math.radians(toward_deg % 360.0)
+    var = values[2] if len(values) > 2 else 0.0
+    if not 0.0 <= var <= 1.0:
+        raise ConfigError(f"--current: VAR {var:g} out of range; accepted: {accepted}")
+    return speed, math.radians(toward_deg % 360.0), var
 
 
 def parse_waves(text: str) -> tuple[float, float, float | None]:
@@ -91,9 +110,9 @@ def parse_waves(text: str) -> tuple[float, float, float | None]:
 def spec_from_strings(wind: str = "0,0", current: str = "0,0", waves: str = "0") -> DisturbanceSpec:
     """Build a :class:`DisturbanceSpec` from the flag strings (validated)."""
     ws, wf = parse_wind(wind)
-    cs, ct = parse_current(current)
+    cs, ct, cvar = parse_current_var(current)
     hs, tp, wt = parse_waves(waves)
-    return DisturbanceSpec(ws, wf, cs, ct, hs, tp, wt)
+    return DisturbanceSpec(ws, wf, cs, ct, hs, tp, wt, current_var=cvar)
 
 
 def jonswap_components(hs_m: float, tp_s: float, n: int, rng: np.random.Generator
@@ -121,6 +140,8 @@ class Environment:
         self.p = params
         self.rng = np.random.default_rng([seed, 0x5eed])
         self.gust_mps = 0.0
+        self.current_speed_dev_mps = 0.0
+        self.current_dir_dev_rad = 0.0
         self.current_speed_mps = spec.current_speed_mps
         self.current_toward_rad = spec.current_toward_rad
         self.wind_speed_mps = spec.wind_speed_mps
@@ -154,13 +175,15 @@ class Environment:
             sigma = s.gust_ratio * s.wind_speed_mps
             self.gust_mps = a * self.gust_mps + sigma * math.sqrt(1.0 - a * a) * float(self._gm_noise())
             self.wind_speed_mps = max(0.0, s.wind_speed_mps + self.gust_mps)
-        if s.current_varying and s.current_speed_mps > 0.0:
-            a = math.exp(-dt_s / 120.0)
+        if s.current_var > 0.0 and s.current_speed_mps > 0.0:
+            a = math.exp(-dt_s / CURRENT_TAU_S)
             w = math.sqrt(1.0 - a * a)
-            self.current_speed_mps = max(0.0, s.current_speed_mps + a * (
-                self.current_speed_mps - s.current_speed_mps) + 0.1 * s.current_speed_mps * w * float(
-                self._gm_noise()))
-            self.current_toward_rad += 0.05 * w * float(self._gm_noise())
+            self.current_speed_dev_mps = a * self.current_speed_dev_mps + (
+                s.current_var * s.current_speed_mps * w * float(self._gm_noise()))
+            self.current_dir_dev_rad = (a * self.current_dir_dev_rad
+                                        + s.current_var * w * float(self._gm_noise()))
+            self.current_speed_mps = max(0.0, s.current_speed_mps + self.current_speed_dev_mps)
+            self.current_toward_rad = s.current_toward_rad + self.current_dir_dev_rad
 
     def current_ned_mps(self) -> tuple[float, float]:
         c = self.current_speed_mps

@@ -25,8 +25,9 @@ def add_sim_arguments(parser: argparse.ArgumentParser, *, with_speedup: bool = T
     """The disturbance flags shared by ``usv sitl``, ``usv sim`` and ``usv sim maneuver``."""
     parser.add_argument("--wind", default=None, metavar="SPEED_MPS,FROM_DEG",
                         help="mean wind speed and the direction it blows FROM (meteorological)")
-    parser.add_argument("--current", default=None, metavar="SPEED_MPS,TOWARD_DEG",
-                        help="current speed and the direction it flows TOWARD (oceanographic)")
+    parser.add_argument("--current", default=None, metavar="SPEED_MPS,TOWARD_DEG[,VAR]",
+                        help="current speed and the direction it flows TOWARD (oceanographic); VAR in "
+                             "[0, 1] makes it slowly varying (spread VAR*SPEED m/s and VAR rad, ~2 min)")
     parser.add_argument("--waves", default=None, metavar="HS_M[,TP_S]",
                         help="significant wave height and peak period")
     parser.add_argument("--seed", type=int, default=None, help="random seed (disturbances, sensor noise)")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import pytest
@@ -81,3 +82,52 @@ def test_flag_conventions() -> None:
     assert parse_current("0.5,90")[1] == pytest.approx(math.pi / 2)
     hs, tp, toward = parse_waves("0.25")
     assert hs == 0.25 and tp == pytest.approx(2.0) and toward is None
+
+
+def test_a_slowly_varying_current_wanders_around_its_mean_and_carries_the_boat_with_it() -> None:
+    """--current SPEED,TOWARD,VAR: the boat (engine off, hull moving with the water) drifts
+    with whatever the current does at each instant; the current wanders slowly around the
+    given mean with spreads VAR*SPEED and VAR rad."""
+    from sim_bridge.disturbances import Environment
+    from sim_bridge.hull import BoatParams
+
+    # the boat moves exactly with the (varying) water: displacement = integral of the current
+    plant = BoatPlant(disturbances=spec_from_strings(current="0.5,90,0.3"), seed=4)
+    north = east = 0.0
+    for _ in range(int(200.0 / DT)):
+        plant.step(DT, 0.0, 0.0, False)
+        cn, ce = plant.env.current_ned_mps()
+        north, east = north + cn * DT, east + ce * DT
+    assert plant.state.north_m == pytest.approx(north, abs=0.05)
+    assert plant.state.east_m == pytest.approx(east, abs=0.05)
+    steady_n, steady_e = drift(current="0.5,90", seconds=200.0)
+    assert math.hypot(plant.state.north_m - steady_n, plant.state.east_m - steady_e) > 1.0
+
+    # statistics over an hour of the current itself: mean, spreads, slowness
+    env = Environment(spec_from_strings(current="0.5,90,0.2"), BoatParams(), seed=4)
+    speeds, dirs = [], []
+    for i in range(int(3600.0 / 0.1)):
+        env.advance(0.1)
+        if i % 10 == 0:
+            speeds.append(env.current_speed_mps)
+            dirs.append(env.current_toward_rad)
+    mean_s, mean_d = sum(speeds) / len(speeds), sum(dirs) / len(dirs)
+    std_s = math.sqrt(sum((s - mean_s) ** 2 for s in speeds) / len(speeds))
+    std_d = math.sqrt(sum((d - mean_d) ** 2 for d in dirs) / len(dirs))
+    assert mean_s == pytest.approx(0.5, abs=0.05) and mean_d == pytest.approx(math.pi / 2, abs=0.1)
+    assert 0.05 < std_s < 0.2 and 0.1 < std_d < 0.4   # targets 0.1 m/s and 0.2 rad
+    # slow: second to second the direction moves a small fraction of its spread (theory:
+    # rms change = std sqrt(2 dt / tau) = 0.13 std for dt = 1 s, tau = 120 s)
+    steps = [b - a for a, b in itertools.pairwise(dirs)]
+    assert math.sqrt(sum(d * d for d in steps) / len(steps)) < 0.2 * std_d
+
+
+def test_current_variability_is_parsed_and_checked() -> None:
+    from sim_bridge.disturbances import parse_current_var
+
+    assert parse_current_var("0.5,90") == (0.5, pytest.approx(math.pi / 2), 0.0)
+    assert parse_current_var("0.5,90,0.25")[2] == 0.25
+    for bad in ("0.5,90,2", "0.5,90,-0.1", "0.5,90,0.1,3"):
+        with pytest.raises(ConfigError) as info:
+            parse_current_var(bad)
+        assert "--current" in str(info.value) and "VAR" in str(info.value)

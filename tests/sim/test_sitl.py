@@ -139,3 +139,22 @@ async def test_the_control_loop_reports_what_each_stage_costs() -> None:
         assert set(cost) == {"nav_publish", "test-driver", "slow", "servo_frame"}
         assert cost["slow"] >= 500.0 and cost["test-driver"] < cost["slow"]
         assert h.lockstep is not None and h.lockstep.timing_us()["sample_delivery"] >= 500.0
+
+
+@pytest.mark.parametrize("rate_hz", [10, 5, 1])
+async def test_slower_gps_ins_rates_run_the_loop_at_that_rate_through_the_parser(rate_hz: int) -> None:
+    """Table 2's 1/5/10 Hz output rates: one control step (and one answered frame) per
+    sample, timestamps spaced 1/rate apart, the boat still driven, nothing rejected."""
+    async with SitlHarness(gnss_rate_hz=rate_hz) as h:
+        drive(h, 0.8, 0.2)
+        times: list[float] = []
+        h.ctx.bus.topic("nav", NavState).add_listener(lambda nav: times.append(nav.t_s))
+        hw = next(s for s in h.services if s.name == "hardware-io")
+        await h.run_for(10.0)
+        assert h.loop.stats.samples == 10 * rate_hz
+        assert times[1] - times[0] == pytest.approx(1.0 / rate_hz)
+        assert hw.parser.errors == 0 and hw.parser.nav_samples == 10 * rate_hz  # type: ignore[attr-defined]
+        assert h.lockstep is not None and h.lockstep.missed_acks == 0
+        assert h.plant.state.u_mps > 3.0 and h.plant.state.r_radps > 0.05  # throttle and starboard nozzle
+        nav = h.ctx.bus.topic("nav", NavState).latest()
+        assert nav is not None and nav.u_mps == pytest.approx(h.plant.state.u_mps, abs=0.5)
