@@ -10,6 +10,14 @@ model error delta_nu of Eq. 5.  Process model (Euler discretisation at the contr
 Measurement z = nu + noise (Eq. 5).  Defaults are the chapter's Eq. 13:
 Q = 1e-2 diag(0,0,0,16,2,1), R = 1e-3 diag(16,2,1), alpha = 1e-3, beta = 2, kappa = 0.
 
+Discretisation of Q.  Eq. 13 does not state the sample time Q refers to.  By default
+(``q_discretization="rate"``) the chapter's Q is read as a continuous-time intensity of the
+random walk delta_nu (units (m/s^2)^2/s), so each step of length dt adds Q_k = Q dt; the
+filter then behaves the same at 100, 50 or 10 Hz.  ``"per_step"`` adds Q itself every step
+(the literal reading): at the 10 ms control period delta_nu's random walk then has a
+variance growth 100x larger, and measured on simulator logs it follows the 0.1 m/s GPS
+velocity noise instead of the model error (see ``usv identify`` report).
+
 Implementation notes.
 
 * Sigma points (Eq. 8) are Van der Merwe's scaled points, the same as filterpy's
@@ -56,6 +64,8 @@ class UKFSettings:
     kappa: float = 0.0
     p0_diag: tuple[float, ...] = field(default=())
     """Initial covariance (Eq. 7); empty means diag(R, model-error block of Q * 100)."""
+    q_discretization: str = "rate"
+    """``"rate"``: Q is a continuous intensity, Q_k = Q dt; ``"per_step"``: Q_k = Q."""
 
 
 def merwe_weights(n: int, alpha: float, beta: float, kappa: float) -> tuple[float, FloatArray, FloatArray]:
@@ -81,6 +91,10 @@ class UKF:
             raise ValueError("UKF needs 6 process-noise and 3 measurement-noise variances")
         if min(s.q_diag) < 0 or min(s.r_diag) <= 0:
             raise ValueError("Q must be >= 0 and R > 0 on the diagonal")
+        if s.q_discretization not in ("rate", "per_step"):
+            raise ValueError(f"q_discretization {s.q_discretization!r}; accepted: 'rate', 'per_step'")
+        self._q_rate = s.q_discretization == "rate"
+        self._q_dt = -1.0
         self.derivative = derivative
         self.Q = np.diag(np.asarray(s.q_diag, dtype=float))
         self.R = np.diag(np.asarray(s.r_diag, dtype=float))
@@ -97,6 +111,16 @@ class UKF:
         self.jitter_count = 0
         self.nis = 0.0
         self._sigmas = np.empty((2 * self.n + 1, self.n))
+        self._q_k = self.Q.copy()
+
+    def q_step(self, dt_s: float) -> FloatArray:
+        """Process noise added in one step of ``dt_s`` (Q dt or Q, see the module docstring)."""
+        if not self._q_rate:
+            return self.Q
+        if dt_s != self._q_dt:
+            self._q_k = self.Q * dt_s
+            self._q_dt = dt_s
+        return self._q_k
 
     def initialize(self, z: FloatArray) -> None:
         """UKF-I (Eq. 7): start from the first measurement, zero model error."""
@@ -133,7 +157,7 @@ class UKF:
         d = y[1:] - y[0]
         mean = y[0] + self._wi * d.sum(axis=0)
         dev = y - mean
-        p = (dev.T * self.Wc) @ dev + self.Q
+        p = (dev.T * self.Wc) @ dev + self.q_step(dt_s)
         self.x = mean
         self.P = 0.5 * (p + p.T)
 
@@ -184,8 +208,8 @@ class QLPVFastUKF(UKF):
     def step(self, z: FloatArray, throttle: float, delta_rad: float, dt_s: float) -> FloatArray:
         self._z[:] = z
         self.nis, jit = self._kernel(self.x, self.P, self._z, float(throttle), float(delta_rad),
-                                     float(dt_s), self._theta, self._c_thrust, self.Q, self.R, self._wi,
-                                     self._wc0, self._c)
+                                     float(dt_s), self._theta, self._c_thrust, self.q_step(dt_s), self.R,
+                                     self._wi, self._wc0, self._c)
         self.jitter_count += jit
         return self.x[3:]
 

@@ -38,7 +38,7 @@ def test_equals_filterpy_every_step_with_chapter_settings() -> None:
 
     ref = UnscentedKalmanFilter(6, 3, DT, lambda x: x[:3], fx, MerweScaledSigmaPoints(6, 1e-3, 2.0, 0.0),
                                 x_mean_fn=stable_mean, z_mean_fn=stable_mean)
-    ref.Q, ref.R = ukf.Q.copy(), ukf.R.copy()
+    ref.Q, ref.R = ukf.q_step(DT).copy(), ukf.R.copy()
     for k in range(1, 1500):
         # Same starting point every step, so that rounding does not accumulate over the run.
         ref.x, ref.P = ukf.x.copy(), ukf.P.copy()
@@ -86,7 +86,7 @@ def test_equals_linear_kalman_filter_on_linear_model() -> None:
         bu = np.zeros(6)
         bu[:3] = DT * (th[:, 0] + th[:, 2] * thr + th[:, 5] * dl) * [1, 0, 0] + DT * th[:, 5] * dl * [0, 1, 1]
         x = f @ x + bu
-        p = f @ p @ f.T + ukf.Q
+        p = f @ p @ f.T + ukf.q_step(DT)
         s = h @ p @ h.T + ukf.R
         k_gain = p @ h.T @ np.linalg.inv(s)
         x = x + k_gain @ (z - h @ x)
@@ -119,3 +119,27 @@ def test_estimates_a_constant_model_error() -> None:
     for k in range(1, z.shape[0]):
         est[k] = ukf.step(z[k], thr[k - 1], dl[k - 1], DT)
     np.testing.assert_allclose(est[-1000:].mean(axis=0), offset, atol=0.01)
+
+
+def test_q_is_a_rate_by_default_so_the_filter_does_not_depend_on_the_sample_time() -> None:
+    """Eq. 13's Q read as a continuous intensity: Q_k = Q dt, and the steady-state uncertainty
+    of delta_nu is (nearly) the same at 100 Hz and 50 Hz; the literal per-step reading is not."""
+    model = reference_qlpv()
+    ukf = UKF(model.derivative)
+    np.testing.assert_allclose(ukf.q_step(0.01), ukf.Q * 0.01)
+    literal = UKF(model.derivative, UKFSettings(q_discretization="per_step"))
+    np.testing.assert_array_equal(literal.q_step(0.01), ukf.Q)
+
+    def steady_var(dt: float, mode: str) -> np.ndarray:
+        f = make_ukf(model, UKFSettings(q_discretization=mode))
+        f.initialize(np.array([1.0, 0.0, 0.0]))
+        for _ in range(round(20.0 / dt)):
+            f.step(np.array([1.0, 0.0, 0.0]), 0.3, 0.0, dt)
+        return np.diag(f.P)[3:]
+
+    ratio_rate = steady_var(0.01, "rate") / steady_var(0.02, "rate")
+    ratio_step = steady_var(0.01, "per_step") / steady_var(0.02, "per_step")
+    # R is per sample, so at 50 Hz half the measurements arrive: with Q a rate only that changes
+    # (variance ratio measured 0.84, ~2^(-1/4)); per step, Q's growth per second doubles too (1.41).
+    assert np.all(np.abs(np.log(ratio_rate)) < 0.25)
+    assert np.all(np.abs(np.log(ratio_step)) > 1.5 * np.abs(np.log(ratio_rate)))
