@@ -61,6 +61,9 @@ def _cdeg_0_360(angle_rad: float) -> int:
 def sensor_bits(ctx: Context, vehicle: Vehicle) -> tuple[int, int, int]:
     """(present, enabled, health) for SYS_STATUS."""
     present = enabled = health = _SENSOR_PREARM
+    # Fences are stored but not enforced: the geofence is neither present nor enabled, and
+    # its health bit says "not breached" (MAVProxy announces a breach when it is clear).
+    health |= mav.MAV_SYS_STATUS_GEOFENCE
     nav = _nav(ctx)
     if nav is not None:
         present |= _SENSORS_INS | _SENSOR_GPS
