@@ -24,6 +24,7 @@ COMMANDS: dict[str, str] = {
     "bench": "benchmarks.cli",
     "params": "companion.commands.params",
     "samples": "companion.commands.samples",
+    "identify": "companion.commands.identify",
 }
 """Subcommand name -> module implementing it."""
 

@@ -1,0 +1,118 @@
+"""Identification pipeline shared by ``usv identify``, its tests and ``usv bench``.
+
+``identify_models(train)`` fits the Table 3 models (linearised speed-and-steering, Nomoto
+with first-order sideslip, the qLPV model of Eq. 3-4, and optionally the qLPV model refined
+by output error); ``validate(models, val)`` returns the J table of Eq. 12,
+``table[model][mode][dof]`` with modes free-run, 1-s-ahead without model error and 1-s-ahead
+with the UKF-estimated model error held (the active model, Eq. 5-11).  The same two
+functions are what the done-when tests assert on, so the CLI and the tests cannot disagree.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import TextIO
+
+import numpy as np
+
+from companion.estimation.ukf import UKFSettings
+from companion.models.base import DOF_NAMES, LinearInParamsModel
+from companion.models.baselines import LinearizedModel, NomotoSideslipModel
+from companion.models.evaluate import MODES, Evaluation, j_table, reference_name
+from companion.models.identify import FitResult, Progress, fit_least_squares, fit_qlpv, refine_output_error
+from companion.models.logs import Record
+
+MODEL_ORDER: tuple[str, ...] = ("linearized", "nomoto_sideslip", "qlpv", "qlpv_oe")
+MODEL_TITLES: dict[str, str] = {"linearized": "Linearized", "nomoto_sideslip": "Nomoto with sideslip",
+                                "qlpv": "qLPV", "qlpv_oe": "qLPV (output-error refined)"}
+MODE_TITLES: dict[str, str] = {"free_run": "free run", "ahead": "1 s ahead, no model error",
+                               "ahead_active": "1 s ahead, active model (UKF delta_nu held)"}
+
+JTable = dict[str, dict[str, dict[str, float]]]
+"""``table[model][mode][dof]``: J of Eq. 12 (a fraction; 0.05 = 5 %)."""
+
+
+def identify_models(train: Sequence[Record], *, window_s: float = 0.5, refine: bool = False,
+                    progress: Progress | None = None) -> dict[str, FitResult]:
+    """Least-squares fits of every model on the training records (+ output-error qLPV)."""
+    zeros = np.zeros((3, 6))
+    fits = {
+        "linearized": fit_least_squares(LinearizedModel(zeros, name="linearized"), train, window_s),
+        "nomoto_sideslip": fit_least_squares(NomotoSideslipModel(zeros, name="nomoto_sideslip"), train,
+                                             window_s),
+        "qlpv": fit_qlpv(train, window_s, name="qlpv"),
+    }
+    if refine:
+        oe = refine_output_error(fits["qlpv"], train, progress=progress)
+        oe.model = replace(oe.model, name="qlpv_oe")
+        fits["qlpv_oe"] = oe
+    return fits
+
+
+@dataclass
+class Validation:
+    """The J table of one validation record and the evaluations behind it (for plots)."""
+
+    record: Record
+    table: JTable
+    evaluations: dict[str, Evaluation]
+    reference: str
+    settings: UKFSettings = field(default_factory=UKFSettings)
+
+
+def validate(models: Mapping[str, LinearInParamsModel], rec: Record, *, horizon_s: float = 1.0,
+             settings: UKFSettings | None = None) -> Validation:
+    """J per model, prediction mode and DOF on ``rec`` (see :mod:`companion.models.evaluate`)."""
+    settings = settings or UKFSettings()
+    table, evals = j_table(models, rec, horizon_s, settings)
+    return Validation(rec, table, evals, reference_name(rec), settings)
+
+
+def ratios(table: JTable, model: str = "qlpv") -> dict[str, dict[str, float]]:
+    """The chapter's Table 4 / Table 3 comparison: active 1-s-ahead J over the qLPV's J without
+    model error (1 s ahead, and free run), per DOF."""
+    row = table[model]
+    return {base: {d: row["ahead_active"][d] / row[base][d] for d in DOF_NAMES}
+            for base in ("ahead", "free_run")}
+
+
+def format_table(table: JTable) -> str:
+    """Plain-text J table (percent), models x prediction mode x DOF."""
+    models = [m for m in MODEL_ORDER if m in table] + [m for m in table if m not in MODEL_ORDER]
+    head = f"{'model':<28}" + "".join(f"{MODE_TITLES[m].split(',')[0][:16]:>22}" for m in MODES)
+    sub = f"{'J (Eq. 12) in %':<28}" + "".join(f"{'u      v      r':>22}" for _ in MODES)
+    lines = [head, sub]
+    for m in models:
+        cells = "".join("".join(f"{100 * table[m][mode][d]:7.2f}" for d in DOF_NAMES).rjust(22)
+                        for mode in MODES)
+        lines.append(f"{MODEL_TITLES.get(m, m):<28}{cells}")
+    lines.append("modes: " + "; ".join(f"{m} = {t}" for m, t in MODE_TITLES.items()))
+    return "\n".join(lines)
+
+
+class ProgressBar:
+    """A one-line text progress bar on stderr (only drawn when stderr is a terminal)."""
+
+    def __init__(self, label: str, stream: TextIO | None = None, force: bool = False) -> None:
+        self.label = label
+        self.stream = stream or sys.stderr
+        self.enabled = force or self.stream.isatty()
+        self._last = -1
+
+    def __call__(self, done: int, total: int) -> None:
+        if not self.enabled or total <= 0:
+            return
+        pct = min(100, int(100 * done / total))
+        if pct == self._last:
+            return
+        self._last = pct
+        bar = "#" * (pct // 4)
+        self.stream.write(f"\r{self.label} [{bar:<25}] {pct:3d}%")
+        self.stream.flush()
+
+    def close(self) -> None:
+        if self.enabled and self._last >= 0:
+            self.stream.write("\n")
+            self.stream.flush()
