@@ -46,7 +46,7 @@ DeltaNuSource = Callable[[], tuple[float, float, float] | None]
 @dataclass(frozen=True, slots=True)
 class ActiveModelConfig:
     heading: HeadingLoopConfig = field(default_factory=HeadingLoopConfig)
-    rate_k_per_s: float = 4.0
+    rate_k_per_s: float = 5.0
     """k_r: bandwidth of the turn-rate error dynamics (1/s)."""
     speed_k_per_s: float = 0.8
     """k_u: bandwidth of the speed error dynamics (1/s)."""
@@ -103,7 +103,7 @@ class ActiveModelController:
         self.crab.update(nav, dt_s)
         psi_d = self.crab.heading_command(target)
         e_psi = wrap_pi(psi_d - nav.heading_rad)
-        r_d = desired_turn_rate(c.heading, e_psi, target.course_rate_radps)
+        r_d = desired_turn_rate(c.heading, e_psi, target.course_rate_radps, nav.u_mps)
         nu = np.array([nav.u_mps, nav.v_mps, nav.r_radps])
         f = self.model.a_of_nu(nu) @ nu
         dnu = self._dnu(dt_s)

@@ -32,14 +32,15 @@ PARAMS: tuple[ParamDef, ...] = (
     ParamDef("USV_RATE_I", 2.0, 0.0, 10.0, "rad/rad", "PID: turn-rate integral gain."),
     ParamDef("USV_RATE_D", 0.0, 0.0, 1.0, "rad/(rad/s^2)", "PID: turn-rate derivative gain."),
     ParamDef("USV_RATE_IMAX", 20.0, 0.0, 60.0, "deg", "PID: bound on the turn-rate integral."),
-    ParamDef("USV_STR_SREF", 5.0, 0.5, 15.0, "m/s", "PID: speed at which the steering gains apply as set."),
+    ParamDef("USV_STR_SREF", 5.0, 0.5, 15.0, "m/s",
+             "Speed at which the steering and heading gains apply as set (scaled by sqrt(U/ref) below)."),
     ParamDef("USV_SPD_P", 0.3, 0.0, 2.0, "1/(m/s)", "PID: speed proportional gain (throttle per m/s)."),
     ParamDef("USV_SPD_I", 0.1, 0.0, 2.0, "1/m", "PID: speed integral gain."),
     ParamDef("USV_SPD_IMAX", 40.0, 0.0, 100.0, "%", "PID: bound on the speed integral."),
     ParamDef("USV_CRUISE_THR", 50.0, 5.0, 100.0, "%",
              "PID: throttle that holds USV_CRUISE_SPD in calm water (feed-forward)."),
     ParamDef("USV_CRUISE_SPD", 5.0, 0.5, 10.0, "m/s", "PID: speed reached with USV_CRUISE_THR."),
-    ParamDef("USV_AM_RATE_K", 4.0, 0.5, 20.0, "1/s", "Active model: turn-rate error bandwidth k_r."),
+    ParamDef("USV_AM_RATE_K", 5.0, 0.5, 20.0, "1/s", "Active model: turn-rate error bandwidth k_r."),
     ParamDef("USV_AM_SPD_K", 0.8, 0.1, 5.0, "1/s", "Active model: speed error bandwidth k_u."),
     ParamDef("USV_AM_ACC_MAX", 1.5, 0.1, 5.0, "m/s^2", "Active model: largest commanded acceleration."),
     ParamDef("USV_AM_DEC_MAX", 1.0, 0.1, 5.0, "m/s^2", "Active model: largest commanded deceleration."),
@@ -61,7 +62,7 @@ class ParamReader(Protocol):
 def heading_config(p: ParamReader) -> HeadingLoopConfig:
     return HeadingLoopConfig(heading_p_per_s=p.get("USV_HDG_P"),
                              turn_rate_max_radps=math.radians(p.get("USV_TURN_MAX")),
-                             crab_tau_s=p.get("USV_CRAB_TC"))
+                             crab_tau_s=p.get("USV_CRAB_TC"), speed_ref_mps=p.get("USV_STR_SREF"))
 
 
 def actuator_limits(p: ParamReader) -> ActuatorLimits:

@@ -16,7 +16,7 @@ from companion.control.actuator import (
     throttle_to_pulse_us,
 )
 from companion.control.pid import Pid, PidGains, RateLimiter
-from companion.control.pid_family import PidConfig, PidController
+from companion.control.pid_family import PidConfig, PidController, desired_turn_rate
 from companion.control.target import ControlTarget
 from companion.guidance.geo import wrap_pi
 from companion.messages import NavState
@@ -102,7 +102,7 @@ def test_active_model_inversion_achieves_the_designed_accelerations() -> None:
     target = ControlTarget(course_rad=math.radians(10.0), speed_mps=2.5, is_heading=True)
     out = ctl.update(nav, target, 0.01, NO_SATURATION)
     nu_dot = model.derivative(nu, out.throttle, out.nozzle_rad)
-    r_d = cfg.heading.heading_p_per_s * math.radians(10.0)
+    r_d = desired_turn_rate(cfg.heading, math.radians(10.0), 0.0, 2.0)
     assert nu_dot[2] == pytest.approx(cfg.rate_k_per_s * (r_d - 0.05), rel=1e-6)
     assert nu_dot[0] == pytest.approx(cfg.speed_k_per_s * 0.5, rel=1e-6)
 
