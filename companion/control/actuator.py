@@ -53,6 +53,16 @@ class ActuatorMapper:
         self._throttle = RateLimiter(self.limits.throttle_rate_per_s, self.limits.throttle_min)
         self.saturation = NO_SATURATION
 
+    @property
+    def nozzle_rad(self) -> float:
+        """The last nozzle angle sent."""
+        return self._nozzle.value
+
+    @property
+    def throttle(self) -> float:
+        """The last throttle sent."""
+        return self._throttle.value
+
     def reset(self, nozzle_rad: float = 0.0, throttle: float = 0.0) -> None:
         lim = self.limits
         self._nozzle.reset(min(lim.nozzle_max_rad, max(-lim.nozzle_max_rad, nozzle_rad)))

@@ -30,17 +30,20 @@ log = logging.getLogger(__name__)
 DT_MIN_S, DT_MAX_S = 0.001, 0.1
 """The step uses sensor time; gaps are clamped so a late sample cannot kick the integrators."""
 
-ModelProvider = Callable[[], QLPVModel | None]
+ModelProvider = Callable[[Context], QLPVModel | None]
 
 
-def default_model_provider() -> QLPVModel | None:
-    """The models package's default identified qLPV model, if it offers one."""
+def default_model_provider(ctx: Context) -> QLPVModel | None:
+    """The qLPV model the estimator stage uses (``ctx.extras['qlpv_model']``), else the configured
+    or shipped params.toml (:func:`companion.estimation.service.load_companion_model`)."""
+    model = ctx.extras.get("qlpv_model")
+    if isinstance(model, QLPVModel):
+        return model
     try:
-        models = importlib.import_module("companion.models")
-        loader = getattr(models, "default_model", None)
-        model = loader() if callable(loader) else None
+        service = importlib.import_module("companion.estimation.service")
+        model = service.load_companion_model(ctx)
     except Exception:  # a broken model file must not stop the boat: PID still works
-        log.exception("loading the default qLPV model failed")
+        log.exception("loading the qLPV model failed")
         return None
     return model if isinstance(model, QLPVModel) else None
 
@@ -80,7 +83,7 @@ class ControlSystem:
     def model(self) -> QLPVModel | None:
         if not self._model_loaded:
             self._model_loaded = True
-            self._model = self._model_provider()
+            self._model = self._model_provider(self.ctx)
         return self._model
 
     def family_type(self) -> int:
