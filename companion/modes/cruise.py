@@ -2,10 +2,10 @@
 
 ArduPilot Rover has no course-hold mode (issue 12251).  Number 20 is outside Rover's mode numbers
 (0-16) so ground stations that decode Rover modes never confuse it; it is announced in
-AVAILABLE_MODES with MAV_STANDARD_MODE_CRUISE.  RC channel 1 (or MANUAL_CONTROL mapped onto it)
-turns the held heading at up to USV_TURN_MAX times the stick deflection; channel 3 above or below
-its centre changes the held speed at up to 1 m/s per second.  Sticks centred: the boat holds
-heading (not course: a course-hold boat crabs, this one keeps its bow where it was).
+AVAILABLE_MODES with MAV_STANDARD_MODE_CRUISE.  RC channel 1 (the steering stick, or
+MANUAL_CONTROL mapped onto it) turns the held heading at up to USV_TURN_MAX times the stick
+deflection; a DO_CHANGE_SPEED (``vehicle.speed_override_mps``) changes the held speed.  Stick
+centred: the boat holds its heading (the bow stays where it was; it does not crab).
 """
 
 from __future__ import annotations
@@ -22,8 +22,6 @@ if TYPE_CHECKING:
     from companion.vehicle import Vehicle
 
 STICK_DEADBAND = 0.05
-SPEED_RATE_MPS2 = 1.0
-MAX_SPEED_MPS = 10.0
 
 
 def stick(channels_us: tuple[int, ...], channel: int) -> float:
@@ -44,6 +42,7 @@ class CruiseMode(NavMode):
         super().__init__()
         self.heading_rad = 0.0
         self.speed_mps = 0.0
+        self._override: float | None = None
 
     def requirements(self, vehicle: Vehicle) -> str | None:
         return requires_position(vehicle)
@@ -54,6 +53,7 @@ class CruiseMode(NavMode):
         assert nav is not None
         self.heading_rad = nav.heading_rad
         self.speed_mps = max(0.0, nav.u_mps)
+        self._override = vehicle.speed_override_mps
         self.nav_target = None
 
     def update(self, vehicle: Vehicle, nav: NavState) -> None:
@@ -62,7 +62,9 @@ class CruiseMode(NavMode):
         if rc is not None and vehicle.ctx.clock.now_s() - rc.t_s < 1.0:
             turn_max = math.radians(vehicle.ctx.params.get("USV_TURN_MAX"))
             self.heading_rad = (self.heading_rad + stick(rc.channels_us, 1) * turn_max * dt) % (2 * math.pi)
-            self.speed_mps = min(MAX_SPEED_MPS, max(0.0, self.speed_mps
-                                                    + stick(rc.channels_us, 3) * SPEED_RATE_MPS2 * dt))
+        override = vehicle.speed_override_mps
+        if override is not None and override != self._override and math.isfinite(override):
+            self.speed_mps = max(0.0, override)
+        self._override = override
         target = ControlTarget(self.heading_rad, self.speed_mps, is_heading=True)
         self.control(vehicle).step(nav, target, ignition_on=vehicle.armed)

@@ -1,0 +1,165 @@
+"""Navigating modes on the full companion stack against the simulated boat (lockstep SITL).
+
+Every test runs the companion as on the boat (GPS-INS bytes -> parser -> estimator -> mode ->
+controller -> servo frames -> plant) with :class:`sim_bridge.sitl.SitlHarness`, faster than
+real time.  The vehicle API (arm, set_mode, mission store) is what the MAVLink services call.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from companion.control.params import CTRL_ACTIVE_MODEL, CTRL_PID
+from companion.guidance.geo import LocalFrame
+from companion.mission import items as mi
+from companion.mission.items import MissionItem, MissionType
+from companion.mission.validate import validate_plan
+from companion.vehicle import MissionState, Vehicle, vehicle_of
+from sim_bridge.sitl import SitlHarness
+
+HOME = (41.77, 123.43)
+
+
+def _pos(h: SitlHarness) -> tuple[float, float]:
+    return h.plant.state.north_m, h.plant.state.east_m
+
+
+async def _start(h: SitlHarness) -> Vehicle:
+    await h.run_for(2.0)
+    vehicle = vehicle_of(h.ctx)
+    assert vehicle.arm() is None
+    return vehicle
+
+
+def _plan(frame: LocalFrame, items: list[tuple[int, tuple[float, float] | None, dict[str, float]]]
+          ) -> list[MissionItem]:
+    plan = [MissionItem.home(*HOME)]
+    for seq, (cmd, ne, params) in enumerate(items, start=1):
+        lat, lon = frame.to_lat_lon(*ne) if ne is not None else (0.0, 0.0)
+        frm = mi.FRAME_GLOBAL_RELATIVE_ALT_INT if ne is not None else mi.FRAME_MISSION
+        plan.append(MissionItem(seq=seq, frame=frm, command=cmd, x=round(lat * 1e7), y=round(lon * 1e7),
+                                **params))
+    return plan
+
+
+@pytest.mark.parametrize("ctrl_type", [CTRL_PID, CTRL_ACTIVE_MODEL])
+async def test_auto_mission_runs_every_item_and_reports_complete(ctrl_type: int) -> None:
+    async with SitlHarness(seed=3, wind="3,45", current="0.3,90", full_stack=True,
+                           params={"USV_CTRL_TYPE": ctrl_type}) as h:
+        vehicle = await _start(h)
+        frame = LocalFrame(*HOME)
+        plan = _plan(frame, [
+            (mi.CMD_NAV_WAYPOINT, (40.0, 0.0), {}),
+            (mi.CMD_DO_CHANGE_SPEED, None, {"param2": 3.0}),
+            (mi.CMD_NAV_WAYPOINT, (40.0, 40.0), {}),
+            (mi.CMD_NAV_LOITER_TIME, (40.0, 40.0), {"param1": 10.0}),
+            (mi.CMD_NAV_WAYPOINT, (0.0, 40.0), {}),
+        ])
+        assert validate_plan(plan, home_first=True) is None
+        vehicle.missions.replace(MissionType.MISSION, plan)
+        reached: list[int] = []
+        vehicle.reached_listeners.append(reached.append)
+        assert vehicle.set_mode(10) is None
+        for _ in range(180):
+            await h.run_for(1.0)
+            if vehicle.mission_state == MissionState.COMPLETE:
+                break
+        assert reached == [1, 3, 4, 5]
+        assert vehicle.mission_state == MissionState.COMPLETE
+        assert vehicle.modes.current.name == "HOLD"  # MIS_DONE_BEHAVE 0
+        n, e = _pos(h)
+        assert math.hypot(n - 0.0, e - 40.0) < 6.0  # at the last waypoint (WP_RADIUS + stopping)
+
+
+async def test_auto_is_refused_without_a_mission_and_says_why() -> None:
+    async with SitlHarness(seed=1, full_stack=True) as h:
+        vehicle = await _start(h)
+        reason = vehicle.set_mode(10)
+        assert reason is not None and "no mission" in reason
+        assert vehicle.modes.current.name == "HOLD"
+
+
+def test_mission_items_with_bad_coordinates_are_refused_at_upload() -> None:
+    frame = LocalFrame(*HOME)
+    good = _plan(frame, [(mi.CMD_NAV_WAYPOINT, (10.0, 0.0), {})])
+    assert validate_plan(good, home_first=True) is None
+    out_of_range = [good[0], MissionItem(seq=1, frame=mi.FRAME_GLOBAL_INT, command=mi.CMD_NAV_WAYPOINT,
+                                         x=round(91.0 * 1e7), y=round(HOME[1] * 1e7))]
+    problem = validate_plan(out_of_range, home_first=True)
+    assert problem is not None and "latitude" in problem.reason
+    missing = [good[0], MissionItem(seq=1, frame=mi.FRAME_GLOBAL_INT, command=mi.CMD_NAV_LOITER_TURNS,
+                                    param1=float("nan"), x=good[1].x, y=good[1].y)]
+    assert validate_plan(missing, home_first=True) is not None
+
+
+async def test_guided_goes_to_the_target_and_stays_there() -> None:
+    async with SitlHarness(seed=2, current="1.2,0", full_stack=True) as h:
+        vehicle = await _start(h)
+        from companion.vehicle import GuidedTarget
+
+        lat, lon = LocalFrame(*HOME).to_lat_lon(0.0, 40.0)
+        assert vehicle.set_mode(15) is None
+        vehicle.guided_target = GuidedTarget(lat, lon, t_s=h.ctx.clock.now_s())
+        await h.run_for(60.0)
+        dists = []
+        for _ in range(20):
+            await h.run_for(1.0)
+            n, e = _pos(h)
+            dists.append(math.hypot(n, e - 40.0))
+        assert max(dists) < 3.0
+
+
+async def test_rtl_returns_home_and_keeps_station_against_the_current() -> None:
+    async with SitlHarness(seed=4, current="1.2,90", full_stack=True) as h:
+        vehicle = await _start(h)
+        assert vehicle.set_mode(20) is None  # CRUISE with the heading of the moment
+        vehicle.speed_override_mps = 4.0
+        await h.run_for(15.0)
+        assert math.hypot(*_pos(h)) > 30.0
+        assert vehicle.set_mode(11) is None
+        await h.run_for(50.0)
+        dists = []
+        for _ in range(20):
+            await h.run_for(1.0)
+            dists.append(math.hypot(*_pos(h)))
+        assert max(dists) < 3.0
+
+
+async def test_loiter_keeps_station_where_hold_drifts() -> None:
+    async with SitlHarness(seed=5, current="1.5,90", wind="3,0", full_stack=True) as h:
+        vehicle = await _start(h)
+        start = _pos(h)
+        assert vehicle.set_mode(5) is None
+        dists = []
+        for _ in range(60):
+            await h.run_for(1.0)
+            n, e = _pos(h)
+            dists.append(math.hypot(n - start[0], e - start[1]))
+        assert max(dists[20:]) < 2.0  # LOIT_RADIUS
+        assert vehicle.set_mode(4) is None
+        before = _pos(h)
+        await h.run_for(20.0)
+        n, e = _pos(h)
+        assert math.hypot(n - before[0], e - before[1]) > 8.0  # HOLD drifts with the current
+
+
+async def test_cruise_holds_heading_and_speed_and_switches_controller_family_while_moving() -> None:
+    async with SitlHarness(seed=6, wind="3,90", waves="0.3", psi0_deg=30.0, full_stack=True,
+                           params={"USV_CTRL_TYPE": CTRL_PID}) as h:
+        vehicle = await _start(h)
+        assert vehicle.set_mode(20) is None
+        vehicle.speed_override_mps = 4.0
+        await h.run_for(20.0)
+        control = h.ctx.extras["control"]
+        errors = []
+        for k in range(40):
+            if k == 20:
+                h.ctx.params.set("USV_CTRL_TYPE", CTRL_ACTIVE_MODEL)
+            await h.run_for(0.5)
+            s = h.plant.state
+            errors.append(abs(math.degrees(math.remainder(s.psi_rad - math.radians(30.0), 2 * math.pi))))
+            assert abs(s.u_mps - 4.0) < 0.6
+        assert control.family_type() == CTRL_ACTIVE_MODEL  # type: ignore[attr-defined]
+        assert max(errors) < 4.0
