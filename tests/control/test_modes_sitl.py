@@ -40,7 +40,8 @@ def _plan(frame: LocalFrame, items: list[tuple[int, tuple[float, float] | None, 
         lat, lon = frame.to_lat_lon(*ne) if ne is not None else (0.0, 0.0)
         frm = mi.FRAME_GLOBAL_RELATIVE_ALT_INT if ne is not None else mi.FRAME_MISSION
         plan.append(MissionItem(seq=seq, frame=frm, command=cmd, x=round(lat * 1e7), y=round(lon * 1e7),
-                                **params))
+                                param1=params.get("param1", 0.0), param2=params.get("param2", 0.0),
+                                param3=params.get("param3", 0.0), param4=params.get("param4", 0.0)))
     return plan
 
 
