@@ -9,6 +9,7 @@ BENCHMARKS: dict[str, str] = {
     "mavlink_codec": "benchmarks.mavlink_codec",
     "mavlink_link": "benchmarks.mavlink_link",
     "ukf": "benchmarks.ukf",
+    "identify": "benchmarks.identify",
     "sim_plant": "benchmarks.sim_plant",
     "sim_lockstep": "benchmarks.sim_lockstep",
     "sim_sitl": "benchmarks.sim_sitl",

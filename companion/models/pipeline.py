@@ -34,7 +34,7 @@ JTable = dict[str, dict[str, dict[str, float]]]
 """``table[model][mode][dof]``: J of Eq. 12 (a fraction; 0.05 = 5 %)."""
 
 
-def identify_models(train: Sequence[Record], *, window_s: float = 0.5, refine: bool = False,
+def identify_models(train: Sequence[Record], *, window_s: float = 2.0, refine: bool = False,
                     progress: Progress | None = None) -> dict[str, FitResult]:
     """Least-squares fits of every model on the training records (+ output-error qLPV)."""
     zeros = np.zeros((3, 6))

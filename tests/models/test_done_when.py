@@ -1,0 +1,184 @@
+"""Issue 5 done-when on simulator logs, through the code ``usv identify`` runs.
+
+Training: chapter protocol (sine +-pi/3 at 30 % throttle, 10 s period), seed 1, calm, 90 s.
+Validation (60 s each, other seeds): sine in calm water; sine, zig-zag and random in a
+0.1 m/s current with Hs 0.05 m waves.  Criteria that the measurements do not meet are
+strict xfails carrying the measured figures (benchmarks/identify.py reports them too), so
+they show up in every run and turn into failures the moment they start to hold.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from benchmarks.identify import CURRENT, WAVES, simulated_record
+from companion.app import Context
+from companion.bus import Bus
+from companion.clock import SimClock
+from companion.config import default_config
+from companion.estimation.service import make_estimator_stage
+from companion.models.base import DOF_NAMES
+from companion.models.params_file import dump_model_params, load_model_params
+from companion.models.pipeline import JTable, identify_models, ratios, validate
+from companion.param_table import all_param_defs
+from companion.params import ParamStore
+from sim_bridge.maneuvers import run_maneuver, write_log_csv
+from tests.conftest import usv_command
+
+
+@pytest.fixture(scope="module")
+def tables() -> dict[str, JTable]:
+    train = [simulated_record("sine", 1, duration_s=90.0)]
+    models = {n: f.model for n, f in identify_models(train).items()}
+    vals = {
+        "sine_calm": simulated_record("sine", 2),
+        "sine": simulated_record("sine", 2, CURRENT, WAVES),
+        "zigzag": simulated_record("zigzag", 3, CURRENT, WAVES),
+        "random": simulated_record("random", 4, CURRENT, WAVES),
+    }
+    return {k: validate(models, rec).table for k, rec in vals.items()}
+
+
+def _qlpv_beats_baselines(t: JTable) -> None:
+    for d in DOF_NAMES:
+        q = t["qlpv"]["free_run"][d]
+        assert q < t["linearized"]["free_run"][d] and q < t["nomoto_sideslip"]["free_run"][d], (d, t)
+
+
+def _active_one_third(t: JTable) -> None:
+    r = ratios(t)["ahead"]
+    assert all(r[d] <= 1 / 3 for d in DOF_NAMES), r
+
+
+@pytest.mark.parametrize("validation", ["sine_calm", "sine"])
+def test_qlpv_beats_both_baselines_in_free_run_on_sine(tables: dict[str, JTable], validation: str) -> None:
+    _qlpv_beats_baselines(tables[validation])
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="measured (window 2 s): zig-zag free-run J_v qLPV 59 % vs 40/41 %; the "
+    "sine training run never reaches the zig-zag's long full-nozzle turns, the |v|v, |r|r terms "
+    "extrapolate",
+)
+def test_qlpv_beats_both_baselines_in_free_run_on_zigzag(tables: dict[str, JTable]) -> None:
+    _qlpv_beats_baselines(tables["zigzag"])
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="measured (window 2 s): random free-run J_r qLPV 37 % vs 44/36 % "
+    "(Nomoto); the random run varies throttle, the sine training run does not",
+)
+def test_qlpv_beats_both_baselines_in_free_run_on_random(tables: dict[str, JTable]) -> None:
+    _qlpv_beats_baselines(tables["random"])
+
+
+@pytest.mark.parametrize("validation", ["sine_calm", "sine", "zigzag", "random"])
+@pytest.mark.xfail(
+    strict=True,
+    reason="measured: with the chapter's Q (as a rate) and R, the UKF's delta_nu "
+    "follows the 0.1 m/s GPS velocity noise (R_v = 0.002 is 5x below the sensor's 0.01) and "
+    "wave-frequency motion (Tp ~1 s); held over 1 s it makes predictions worse (ratio 1.4-4.9)",
+)
+def test_active_model_one_second_ahead_is_a_third_of_qlpv(tables: dict[str, JTable], validation: str) -> None:
+    _active_one_third(tables[validation])
+
+
+def test_active_model_helps_where_the_model_error_is_slow(tables: dict[str, JTable]) -> None:
+    """A weaker, met property: on yaw in the random manoeuvre (model error from throttle
+    changes the sine training never saw) the held delta_nu improves the 1-s prediction."""
+    assert ratios(tables["random"])["ahead"]["r"] < 1.0
+
+
+# --- the command line -------------------------------------------------------------------------
+
+
+def _usv(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([*usv_command(), *args], capture_output=True, text=True, timeout=120)
+
+
+def test_usv_identify_writes_report_and_loadable_params(tmp_path: Path) -> None:
+    write_log_csv(run_maneuver("sine", duration_s=40.0, seed=1), tmp_path / "train.csv")
+    write_log_csv(
+        run_maneuver("sine", duration_s=20.0, seed=2, current=CURRENT, waves=WAVES), tmp_path / "val.csv"
+    )
+    out = _usv(
+        "identify",
+        str(tmp_path / "train.csv"),
+        "--validate",
+        str(tmp_path / "val.csv"),
+        "--report",
+        str(tmp_path / "rep"),
+        "--json",
+    )
+    assert out.returncode == 0, out.stderr
+    data = json.loads(out.stdout)
+    assert set(data["j"]) == {"linearized", "nomoto_sideslip", "qlpv"}
+    assert set(data["j"]["qlpv"]) == {"free_run", "ahead", "ahead_active"}
+    assert all(np.isfinite(v) for modes in data["j"].values() for row in modes.values() for v in row.values())
+    for name in (
+        "params.toml",
+        "report.md",
+        "input.png",
+        "predicted_u.png",
+        "predicted_v.png",
+        "predicted_r.png",
+        "model_error.png",
+    ):
+        assert (tmp_path / "rep" / name).stat().st_size > 0, name
+    model = load_model_params(tmp_path / "rep" / "params.toml")
+    assert model.param_table()["u"]["Tcos"] > 0
+    report = (tmp_path / "rep" / "report.md").read_text()
+    assert "chapter Table 3 (published, real boat, reference only)" in report
+    text = _usv(
+        "identify",
+        str(tmp_path / "train.csv"),
+        "--validate",
+        str(tmp_path / "val.csv"),
+        "--report",
+        str(tmp_path / "rep2"),
+    )
+    assert text.returncode == 0 and "qLPV" in text.stdout and "Nomoto" in text.stdout
+
+
+def test_usv_identify_broken_csv_is_one_line_error(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.csv"
+    bad.write_text("t,u,v,r,throttle,delt\n" + "".join(f"{0.01 * i},1,0,0,0.3,0\n" for i in range(50)))
+    out = _usv("identify", str(bad), "--validate", str(bad), "--report", str(tmp_path / "rep"))
+    assert out.returncode == 2
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and "'delta'" in lines[0] and "misnamed" in lines[0]
+    assert not (tmp_path / "rep").exists()
+
+
+# --- the companion uses params.toml ---------------------------------------------------------------
+
+
+def _ctx(overrides: dict[str, str]) -> Context:
+    cfg = default_config().with_overrides(overrides)
+    return Context(cfg, SimClock(), Bus(), ParamStore(all_param_defs()))
+
+
+def test_companion_loads_params_toml_from_state_dir_and_config(tmp_path: Path) -> None:
+    from tests.models.helpers import reference_qlpv
+
+    ref = reference_qlpv(c_thrust=0.123)
+    dump_model_params(ref, tmp_path / "state" / "model" / "params.toml")
+    ctx = _ctx({"vehicle.state_dir": str(tmp_path / "state")})
+    make_estimator_stage(ctx)
+    used = ctx.extras["qlpv_model"]
+    np.testing.assert_array_equal(used.theta, ref.theta)
+    assert used.thrust_speed_coeff == 0.123
+    other = reference_qlpv(c_thrust=0.0)
+    dump_model_params(other, tmp_path / "elsewhere.toml")
+    ctx2 = _ctx(
+        {"vehicle.state_dir": str(tmp_path / "state"), "models.params_file": str(tmp_path / "elsewhere.toml")}
+    )
+    make_estimator_stage(ctx2)
+    assert ctx2.extras["qlpv_model"].thrust_speed_coeff == 0.0
