@@ -16,15 +16,8 @@ this order; the companion runs one control step per ``$GPFPD``):
 ``$PUSVP,...`` and ``$PUSVRC,...`` (10 Hz)   payload and RC receiver, see :mod:`sim_bridge.payload`.
 
 Noise (Table 2, 1 sigma): heading 0.2 deg, attitude 0.5 deg, position 2 cm + 1 ppm of
-the distance from the start point (Gauss-Markov, 10 s correlation), speed 0.1 m/s, gyro
-0.05 deg/s white plus a seeded bias, gyro range +-100 deg/s.
-
-Velocity and heading errors are time-correlated, not white: a GPS-INS outputs an
-INS-propagated solution at 100 Hz, corrected by GNSS at a lower rate, so its error wanders
-slowly (first-order Gauss-Markov) with only a small white part.  Velocity: Gauss-Markov
-0.07 m/s per axis (0.1 m/s in speed, Table 2), 2 s correlation, plus 0.01 m/s white.
-Heading: Gauss-Markov 0.2 deg, 5 s correlation, plus 0.02 deg white.  (White 0.1 m/s at
-100 Hz would make the velocity derivative meaningless, which no INS output shows.)  Update rate
+the distance from the start point (Gauss-Markov, 10 s correlation), velocity 0.1 m/s per
+axis, gyro 0.05 deg/s white plus a seeded bias, gyro range +-100 deg/s.  Update rate
 1, 5, 10 or 100 Hz.  Faults (:class:`SensorFaults`): GNSS outage, silent device,
 corrupted bytes, heading bias, stuck gyro.
 """
@@ -44,12 +37,6 @@ EARTH_RADIUS_M = 6378137.0
 GPS_EPOCH_UNIX_S = 315964800.0
 GPS_LEAP_S = 18.0
 SUPPORTED_RATES_HZ = (1, 5, 10, 100)
-VEL_GM_SIGMA_MPS = 0.07
-VEL_GM_TAU_S = 2.0
-VEL_WHITE_MPS = 0.01
-HEADING_GM_SIGMA_DEG = 0.2
-HEADING_GM_TAU_S = 5.0
-HEADING_WHITE_DEG = 0.02
 
 
 @dataclass(slots=True)
@@ -118,8 +105,6 @@ class GpsInsModel:
         self.faults = SensorFaults()
         self.gyro_bias_degps = float(self.rng.normal(0.0, 0.1))
         self._pos_err = [0.0, 0.0]
-        self._vel_err = [float(self.rng.normal(0.0, VEL_GM_SIGMA_MPS)) for _ in range(2)]
-        self._hdg_err_deg = float(self.rng.normal(0.0, HEADING_GM_SIGMA_DEG))
         self._dr_pos: tuple[float, float] | None = None
         self._last_gyro = 0.0
         self._noise: Iterator[float] = iter(())  # pre-drawn standard normals, refilled in blocks (speed)
@@ -148,14 +133,8 @@ class GpsInsModel:
         self._pos_err[1] = a * self._pos_err[1] + w * n()
         vn_true = s.u_mps * math.cos(s.psi_rad) - s.v_mps * math.sin(s.psi_rad)
         ve_true = s.u_mps * math.sin(s.psi_rad) + s.v_mps * math.cos(s.psi_rad)
-        av = math.exp(-dt_s / VEL_GM_TAU_S)
-        wv = VEL_GM_SIGMA_MPS * math.sqrt(1.0 - av * av)
-        self._vel_err[0] = av * self._vel_err[0] + wv * n()
-        self._vel_err[1] = av * self._vel_err[1] + wv * n()
-        vn = vn_true + self._vel_err[0] + VEL_WHITE_MPS * n()
-        ve = ve_true + self._vel_err[1] + VEL_WHITE_MPS * n()
-        ah = math.exp(-dt_s / HEADING_GM_TAU_S)
-        self._hdg_err_deg = ah * self._hdg_err_deg + HEADING_GM_SIGMA_DEG * math.sqrt(1.0 - ah * ah) * n()
+        vn = vn_true + 0.1 * n()
+        ve = ve_true + 0.1 * n()
         if f.gps_outage:
             # INS dead reckoning from the last fix: integrates noisy velocity, drifts
             if self._dr_pos is None:
@@ -168,8 +147,7 @@ class GpsInsModel:
             self._dr_pos = None
             north, east = s.north_m + self._pos_err[0], s.east_m + self._pos_err[1]
             status, nsv = 0x0B, 14
-        heading = (math.degrees(s.psi_rad) + self._hdg_err_deg + HEADING_WHITE_DEG * n()
-                   + f.heading_bias_deg) % 360.0
+        heading = (math.degrees(s.psi_rad) + 0.2 * n() + f.heading_bias_deg) % 360.0
         if not f.gyro_stuck:
             gz = -math.degrees(s.r_radps) + self.gyro_bias_degps + 0.05 * n()
             self._last_gyro = max(-100.0, min(100.0, gz))
