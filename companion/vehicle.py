@@ -86,9 +86,10 @@ class Vehicle:
         self.speed_override_mps: float | None = None
         self.failsafe_reason: str | None = None
         self.servo_overrides_us: dict[int, int] = {}
-        """DO_SET_SERVO: output channel (1-based) -> pulse width the operator asked for."""
+        """DO_SET_SERVO / DO_SET_RELAY: free output channel (1-based) -> pulse width; the servo
+        map writes these into every frame (see :mod:`companion.actuators.overrides`)."""
         self.relays: dict[int, bool] = {}
-        """DO_SET_RELAY: relay instance -> on."""
+        """DO_SET_RELAY: relay instance -> on (its channel is in ``servo_overrides_us``)."""
         self.boot_s = ctx.clock.now_s()
         self._prearm_checks: list[tuple[str, PrearmCheck]] = [
             ("position", _check_position), ("attitude", _check_attitude),

@@ -33,4 +33,7 @@ PARAMS: tuple[ParamDef, ...] = (
              "Pulse of on/off servos when on (ignition on, selector on companion, pump on).", is_int=True),
     ParamDef("USV_NAV_TMO_S", 0.5, 0.05, 10.0, "s",
              "Without a GPS-INS sample for this long, the servo frame is still refreshed at 10 Hz."),
+    *(ParamDef(f"USV_RLY{n}_CH", 2 if n == 0 else 0, 0, 8, "",
+               f"Output channel (1-8) driven by relay {n} (MAV_CMD_DO_SET_RELAY; USV_SW_PWM_ON/OFF); "
+               "0 = not wired. Autopilot-owned channels are refused.", is_int=True) for n in range(4)),
 )

@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
+from companion.actuators.overrides import owned_channels
 from companion.messages import ActuatorCommand, ControlSource
 from companion.params import ParamStore
 from companion.sensors.nmea import build
@@ -63,17 +64,23 @@ class _Resolved(NamedTuple):
     ch_launcher: int
     ch_pump: int
     ch_valve: int
+    owned: frozenset[int]
+    """0-based indices of the autopilot-owned outputs (never overridden)."""
 
 
 class ServoMap:
     """Maps an :class:`ActuatorCommand` to pulses using the USV_CH_*/USV_*_PWM_* parameters.
 
     Parameter values are cached and re-read after any parameter change (store listener).
+    :attr:`overrides_us` (1-based channel -> pulse; DO_SET_SERVO / DO_SET_RELAY, see
+    :mod:`companion.actuators.overrides`) drives free outputs only: an entry for an
+    autopilot-owned channel is ignored.
     """
 
     def __init__(self, params: ParamStore) -> None:
         self.params = params
         self._cache: _Resolved | None = None
+        self.overrides_us: dict[int, int] = {}
         params.add_listener(lambda _n, _v: self._invalidate())
 
     def _invalidate(self) -> None:
@@ -94,7 +101,8 @@ class ServoMap:
             sw_off=round(p("USV_SW_PWM_OFF", 1100)), sw_on=round(p("USV_SW_PWM_ON", 1900)),
             ch_ignition=int(p("USV_CH_IGNITION", 5)) - 1, ch_selector=int(p("USV_CH_SELECTOR", 6)) - 1,
             ch_launcher=int(p("USV_CH_LAUNCHER", 7)) - 1, ch_pump=int(p("USV_CH_PUMP", 8)) - 1,
-            ch_valve=int(p("USV_CH_VALVE", 4)) - 1)
+            ch_valve=int(p("USV_CH_VALVE", 4)) - 1,
+            owned=frozenset(ch - 1 for ch in owned_channels(self.params)))
         return self._cache
 
     def pulses(self, cmd: ActuatorCommand, launcher_pulse_us: int = 1900, launcher_safe_us: int = 1100,
@@ -122,4 +130,9 @@ class ServoMap:
         out[c.ch_pump] = on if pump_on else off
         bottle = max(0, min(4, valve_bottle)) if pump_on else 0
         out[c.ch_valve] = 1000 + 200 * bottle
+        if self.overrides_us:
+            for channel, pulse_us in self.overrides_us.items():
+                index = channel - 1
+                if 0 <= index < N_CHANNELS and index not in c.owned:
+                    out[index] = pulse_us
         return tuple(out)

@@ -60,6 +60,9 @@ class MavlinkService(BaseService):
             # The active mode is the guidance+control stage of the loop: after the estimator,
             # before the servo frame is written.
             control_loop.add_stage("modes", self.vehicle.modes.update)  # type: ignore[attr-defined]
+            # DO_SET_SERVO / DO_SET_RELAY reach the servo frame (free outputs only, see
+            # companion.actuators.overrides): the servo map reads the vehicle's override table.
+            control_loop.servo_map.overrides_us = self.vehicle.servo_overrides_us  # type: ignore[attr-defined]
         register_vehicle_commands(registry_of(ctx))
         self.commands = CommandService(ctx, links, self.vehicle)
         self.params = ParamService(ctx, links, self.vehicle)

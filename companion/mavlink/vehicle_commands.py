@@ -10,6 +10,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from companion.actuators.overrides import N_RELAYS, override_refusal, relay_channel
+from companion.actuators.servo import N_CHANNELS
 from companion.app import Context
 from companion.link.dialect import mav
 from companion.link.endpoint import Link
@@ -23,9 +25,9 @@ MODE_RTL = 11
 MODE_GUIDED = 15
 
 SERVO_CHANNELS = 16
+"""DO_SET_SERVO accepts MAVLink's 16 channels; those beyond the frame's 8 are refused as not wired."""
 SERVO_MIN_US = 500
 SERVO_MAX_US = 2500
-RELAY_COUNT = 6
 
 MSG_PROTOCOL_VERSION = 300
 MSG_COMPONENT_INFORMATION = 395
@@ -182,22 +184,41 @@ async def do_set_home(ctx: Context, cmd: CommandRequest) -> CommandResult:
 
 
 async def do_set_servo(ctx: Context, cmd: CommandRequest) -> CommandResult:
+    """DO_SET_SERVO on a free output (see :mod:`companion.actuators.overrides`); 0 us releases it."""
     channel, pwm = cmd.param1, cmd.param2
     if not _is_int(channel) or not 1 <= channel <= SERVO_CHANNELS:
         return CommandResult.denied(f"Set servo refused: channel {channel:g} not in 1..{SERVO_CHANNELS}")
-    if not _is_int(pwm) or not SERVO_MIN_US <= pwm <= SERVO_MAX_US:
+    if not _is_int(pwm) or not (pwm == 0 or SERVO_MIN_US <= pwm <= SERVO_MAX_US):
         return CommandResult.denied(f"Set servo refused: {pwm:g} us not in {SERVO_MIN_US}..{SERVO_MAX_US}")
-    vehicle_of(ctx).servo_overrides_us[int(channel)] = int(pwm)
+    refusal = override_refusal(ctx.params, int(channel), N_CHANNELS)
+    if refusal is not None:
+        return CommandResult.denied(f"Set servo {int(channel)} refused: {refusal}")
+    overrides = vehicle_of(ctx).servo_overrides_us
+    if pwm == 0:
+        overrides.pop(int(channel), None)
+    else:
+        overrides[int(channel)] = int(pwm)
     return CommandResult.accepted()
 
 
 async def do_set_relay(ctx: Context, cmd: CommandRequest) -> CommandResult:
+    """DO_SET_RELAY: relay n drives output USV_RLY{n}_CH with USV_SW_PWM_ON/OFF."""
     instance, setting = cmd.param1, cmd.param2
-    if not _is_int(instance) or not 0 <= instance < RELAY_COUNT:
-        return CommandResult.denied(f"Set relay refused: relay {instance:g} not in 0..{RELAY_COUNT - 1}")
+    if not _is_int(instance) or not 0 <= instance < N_RELAYS:
+        return CommandResult.denied(f"Set relay refused: relay {instance:g} not in 0..{N_RELAYS - 1}")
     if setting not in (0.0, 1.0):
         return CommandResult.denied(f"Set relay refused: setting {setting:g} must be 0 or 1")
-    vehicle_of(ctx).relays[int(instance)] = setting == 1.0
+    relay = int(instance)
+    channel = relay_channel(ctx.params, relay)
+    if channel == 0:
+        return CommandResult.denied(f"Set relay {relay} refused: USV_RLY{relay}_CH is 0")
+    refusal = override_refusal(ctx.params, channel, N_CHANNELS)
+    if refusal is not None:
+        return CommandResult.denied(f"Set relay {relay} refused: ch {channel} {refusal}")
+    vehicle = vehicle_of(ctx)
+    on = setting == 1.0
+    vehicle.relays[relay] = on
+    vehicle.servo_overrides_us[channel] = ctx.params.get_int("USV_SW_PWM_ON" if on else "USV_SW_PWM_OFF")
     return CommandResult.accepted()
 
 

@@ -1,0 +1,59 @@
+"""Operator overrides of free servo outputs (MAV_CMD_DO_SET_SERVO, MAV_CMD_DO_SET_RELAY).
+
+The servo frame has :data:`~companion.actuators.servo.N_CHANNELS` outputs.  Most are owned by
+the autopilot and carry safety-critical functions (the ``USV_CH_*`` parameters): nozzle,
+throttle, ignition, RC/GCS selector, rope-launcher trigger, sampler pump and sampler valve.
+An operator override may never drive those: the launcher must stay behind its interlocks,
+the engine behind arming and the failsafes, the bottles behind the sample log.  Only the
+remaining *free* outputs (channel 2 with the default wiring) accept an override.
+
+Relays (DO_SET_RELAY) are on/off outputs on free channels too: relay ``n`` (0-based, as in
+MAVLink) drives the channel in parameter ``USV_RLY{n}_CH`` (0 = not wired; by default relay 0
+is channel 2, the auxiliary output, e.g. a searchlight or horn) with ``USV_SW_PWM_ON`` /
+``USV_SW_PWM_OFF``.  Ownership is checked twice: when the command arrives (refused with the
+function's name) and again for every frame (:meth:`ServoMap.pulses` drops an override whose
+channel became autopilot-owned after a parameter change).
+"""
+
+from __future__ import annotations
+
+from companion.params import ParamStore
+
+N_RELAYS = 4
+"""Relay instances 0..N_RELAYS-1 (each with its ``USV_RLY{n}_CH`` parameter)."""
+
+OWNED_CHANNEL_PARAMS: tuple[tuple[str, int, str], ...] = (
+    ("USV_CH_NOZZLE", 1, "nozzle (steering)"),
+    ("USV_CH_THROTTLE", 3, "throttle"),
+    ("USV_CH_VALVE", 4, "sampler valve"),
+    ("USV_CH_IGNITION", 5, "ignition"),
+    ("USV_CH_SELECTOR", 6, "RC/GCS selector"),
+    ("USV_CH_LAUNCHER", 7, "launcher trigger"),
+    ("USV_CH_PUMP", 8, "sampler pump"),
+)
+"""Parameter, default channel and function of every autopilot-owned output."""
+
+
+def owned_channels(params: ParamStore) -> dict[int, str]:
+    """1-based channel -> function of every output the autopilot owns (never overridable)."""
+    owned: dict[int, str] = {}
+    for name, default, function in OWNED_CHANNEL_PARAMS:
+        channel = params.get_int(name) if name in params else default
+        owned.setdefault(channel, function)
+    return owned
+
+
+def relay_channel(params: ParamStore, relay: int) -> int:
+    """1-based output channel of relay ``relay`` (0: not wired)."""
+    name = f"USV_RLY{relay}_CH"
+    if not 0 <= relay < N_RELAYS or name not in params:
+        return 0
+    return params.get_int(name)
+
+
+def override_refusal(params: ParamStore, channel: int, n_channels: int) -> str | None:
+    """Why ``channel`` (1-based) cannot be overridden (short, for a STATUSTEXT: the owned
+    output's function, or "not wired"), or ``None`` if it is a free output."""
+    if not 1 <= channel <= n_channels:
+        return f"not wired (outputs 1-{n_channels})"
+    return owned_channels(params).get(channel)
