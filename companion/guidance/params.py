@@ -23,8 +23,10 @@ PARAMS: tuple[ParamDef, ...] = (
     ParamDef("USV_LOS_DELTA", 9.0, 1.0, 100.0, "m", "LOS look-ahead distance Delta."),
     ParamDef("USV_LOS_KI", 0.04, 0.0, 1.0, "1/m", "ILOS integral gain Ki."),
     ParamDef("USV_ALOS_GAMMA", 0.002, 0.0, 0.1, "rad/(m s)", "ALOS crab-angle adaptation gain gamma."),
-    ParamDef("USV_WP_TURN_SPD", 2.5, 0.5, 10.0, "m/s",
+    ParamDef("USV_WP_TURN_SPD", 2.0, 0.5, 10.0, "m/s",
              "Speed through corners sharper than 30 degrees (the boat slows down before them)."),
+    ParamDef("USV_WP_YAW_LAG", 2.5, 0.0, 10.0, "s",
+             "Time the boat needs to build up its turn rate; turns at corners start this much earlier."),
     ParamDef("USV_CIRC_K", 1.0, 0.1, 20.0, "", "Point tracking: convergence gain onto the circle."),
     ParamDef("USV_CIRC_KI", 0.0, 0.0, 1.0, "1/s", "Point tracking: integral gain on the radial error."),
     ParamDef("USV_CIRC_SPD", 1.6, 0.5, 10.0, "m/s", "Point tracking: speed while circling a point."),
@@ -48,7 +50,7 @@ def los_gains(p: ParamReader) -> LosGains:
 
 def leg_config(p: ParamReader, speed_mps: float, accept_radius_m: float) -> LegConfig:
     return LegConfig(speed_mps=speed_mps, accept_radius_m=accept_radius_m,
-                     turn_speed_mps=p.get("USV_WP_TURN_SPD"),
+                     turn_speed_mps=p.get("USV_WP_TURN_SPD"), yaw_lag_s=p.get("USV_WP_YAW_LAG"),
                      turn_rate_max_radps=math.radians(p.get("USV_TURN_MAX")))
 
 
