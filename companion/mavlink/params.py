@@ -7,11 +7,11 @@ changes what the boat does:
 * ``WP_RADIUS``, ``WP_SPEED``, ``CRUISE_SPEED``, ``LOIT_RADIUS``: read by the guidance
   and modes (AUTO, GUIDED, LOITER) of the guidance/control issue.
 * ``FS_GCS_ENABLE``, ``FS_GCS_TIMEOUT``, ``FS_ACTION``: the ground-station failsafe in
-  :mod:`companion.mavlink.failsafe`.
+  :meth:`companion.mavlink.service.MavlinkService.check_failsafe` (simulation/vehicle clock).
 * ``MIS_DONE_BEHAVE``: what AUTO does after the last item (ArduRover's 0 Hold, 1 Loiter);
   read by AUTO.
 
-The boat's own parameters use the ``USV_`` prefix (``USV_FS_ENG_STOP_S``: the chapter's
+The boat's own parameters use the ``USV_`` prefix (``USV_FS_ENG_STOP``: the chapter's
 engine stop after 120 s without ground-station data).
 """
 

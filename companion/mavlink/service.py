@@ -169,7 +169,15 @@ class MavlinkService(BaseService):
             self.check_failsafe()
 
     def check_failsafe(self) -> None:
-        """FS_GCS_* and USV_FS_ENG_STOP against the age of the last GCS heartbeat."""
+        """FS_GCS_* and USV_FS_ENG_STOP against the age of the last GCS heartbeat.
+
+        Ages are in ``ctx.clock`` time (simulated seconds in SITL).  Armed and silent for
+        FS_GCS_TIMEOUT: STATUSTEXT and FS_ACTION's mode (RTL falls back to HOLD); silent for
+        USV_FS_ENG_STOP: disarm, which turns the ignition off (the boat coasts).  A returning
+        ground station only clears the failsafe flag (STATUSTEXT "GCS failsafe cleared"): the
+        mode stays as the failsafe left it and a stopped engine stays stopped until the
+        operator re-arms and picks a mode.
+        """
         params, vehicle = self.ctx.params, self.vehicle
         age_s = self.links.gcs_heartbeat_age_s()
         if age_s is None:
