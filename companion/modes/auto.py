@@ -290,7 +290,8 @@ class AutoMode(NavMode):
                 fill_s=item.param3 if item.param3 > 0 else None,
                 volume_ml=item.param4 if item.param4 > 0 else None,
                 mission_seq=item.seq, target=(item.lat_deg, item.lon_deg),
-                accept_radius_m=task.radius_m + 1.0)
+                accept_radius_m=vehicle.ctx.params.get("USV_SMPL_ACC_M") if "USV_SMPL_ACC_M" in vehicle.ctx.params
+                else task.radius_m + 0.5)
             if isinstance(job, str):
                 return True  # refused (announced by the payload); continue the mission
             self._job = job
