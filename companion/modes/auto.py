@@ -285,13 +285,14 @@ class AutoMode(NavMode):
             except LookupError:
                 vehicle.status("AUTO: no water sampler; sample item skipped", 4)
                 return True
+            params = vehicle.ctx.params
+            accept = params.get("USV_SMPL_ACC_M") if "USV_SMPL_ACC_M" in params else task.radius_m + 0.5
             job = payloads.start_sample(
                 bottle=int(item.param1) if math.isfinite(item.param1) else 0,
                 fill_s=item.param3 if item.param3 > 0 else None,
                 volume_ml=item.param4 if item.param4 > 0 else None,
                 mission_seq=item.seq, target=(item.lat_deg, item.lon_deg),
-                accept_radius_m=vehicle.ctx.params.get("USV_SMPL_ACC_M") if "USV_SMPL_ACC_M" in vehicle.ctx.params
-                else task.radius_m + 0.5)
+                accept_radius_m=accept)
             if isinstance(job, str):
                 return True  # refused (announced by the payload); continue the mission
             self._job = job

@@ -182,7 +182,8 @@ async def test_auto_samples_water_while_circling_each_point_in_current() -> None
             await h.run_for(0.1)
             if h.sampler.pump_on:
                 n, e = _pos(h)
-                far_while_pumping = max(far_while_pumping, min(math.hypot(n - p[0], e - p[1]) for p in points))
+                nearest = min(math.hypot(n - p[0], e - p[1]) for p in points)
+                far_while_pumping = max(far_while_pumping, nearest)
             if vehicle.mission_state == MissionState.COMPLETE:
                 break
         assert vehicle.mission_state == MissionState.COMPLETE
