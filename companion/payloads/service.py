@@ -11,6 +11,7 @@ from typing import Any
 from companion.app import BaseService, Context
 from companion.payloads.commands import register_payload_commands
 from companion.payloads.launcher import RopeLauncher
+from companion.payloads.mission_checks import register_mission_checks
 from companion.payloads.registry import Payloads
 from companion.payloads.samplelog import SAMPLE_LOG_NAME, SampleLog
 from companion.payloads.sampler import WaterSampler
@@ -108,6 +109,7 @@ class PayloadService(BaseService):
         )
         ctx.extras["payloads"] = self.payloads
         register_payload_commands(ctx)
+        register_mission_checks()
         _register_streams(self.payloads)
 
     async def stop(self) -> None:
