@@ -46,7 +46,7 @@ DeltaNuSource = Callable[[], tuple[float, float, float] | None]
 @dataclass(frozen=True, slots=True)
 class ActiveModelConfig:
     heading: HeadingLoopConfig = field(default_factory=HeadingLoopConfig)
-    rate_k_per_s: float = 5.0
+    rate_k_per_s: float = 6.0
     """k_r: bandwidth of the turn-rate error dynamics (1/s)."""
     speed_k_per_s: float = 0.8
     """k_u: bandwidth of the speed error dynamics (1/s)."""

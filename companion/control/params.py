@@ -40,7 +40,7 @@ PARAMS: tuple[ParamDef, ...] = (
     ParamDef("USV_CRUISE_THR", 50.0, 5.0, 100.0, "%",
              "PID: throttle that holds USV_CRUISE_SPD in calm water (feed-forward)."),
     ParamDef("USV_CRUISE_SPD", 5.0, 0.5, 10.0, "m/s", "PID: speed reached with USV_CRUISE_THR."),
-    ParamDef("USV_AM_RATE_K", 5.0, 0.5, 20.0, "1/s", "Active model: turn-rate error bandwidth k_r."),
+    ParamDef("USV_AM_RATE_K", 6.0, 0.5, 20.0, "1/s", "Active model: turn-rate error bandwidth k_r."),
     ParamDef("USV_AM_SPD_K", 0.8, 0.1, 5.0, "1/s", "Active model: speed error bandwidth k_u."),
     ParamDef("USV_AM_ACC_MAX", 1.5, 0.1, 5.0, "m/s^2", "Active model: largest commanded acceleration."),
     ParamDef("USV_AM_DEC_MAX", 1.0, 0.1, 5.0, "m/s^2", "Active model: largest commanded deceleration."),
