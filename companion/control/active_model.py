@@ -19,8 +19,9 @@ normalised thrust ``T~ = |w|`` and the throttle from the model's thrust map
 Compensation.  ``delta_nu`` is the UKF's online estimate of the model error (Eq. 5-11, published
 on topic ``model_error`` by :mod:`companion.estimation`); subtracting it makes the closed loop
 behave as designed despite mismatch, wind and waves: the UKF acts as a disturbance observer, so
-no integrator is needed.  When the nozzle limit is reached the surge request is kept and the yaw
-request saturates (reported to the caller through the actuator flags).
+no integrator is needed.  When the nozzle limit is reached the yaw row has priority: the thrust
+is raised until full nozzle gives the requested yaw moment (a water jet has no steering without
+thrust), so the boat does not lose its turn when it is also asked to slow down.
 """
 
 from __future__ import annotations
@@ -114,8 +115,11 @@ class ActiveModelController:
         w_cos = max(c.min_thrust, (u_dot_d - f[0] - dnu[0]) / self._b_u)
         delta = math.atan2(w_sin, w_cos)
         if abs(delta) > c.nozzle_max_rad:
+            # Nozzle limit: a water jet only turns while it pushes, so the yaw row has priority
+            # (the thrust that gives the requested yaw moment at full nozzle), the surge row gets
+            # what that thrust leaves (never less than it asked for).
             delta = math.copysign(c.nozzle_max_rad, delta)
-            thrust = w_cos / math.cos(delta)
+            thrust = max(w_cos / math.cos(delta), abs(w_sin) / math.sin(c.nozzle_max_rad))
         else:
             thrust = math.hypot(w_sin, w_cos)
         throttle = throttle_for_thrust(self.model, thrust, nav.u_mps)

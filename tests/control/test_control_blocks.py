@@ -108,6 +108,22 @@ def test_active_model_inversion_achieves_the_designed_accelerations() -> None:
     assert nu_dot[0] == pytest.approx(cfg.speed_k_per_s * 0.5, rel=1e-6)
 
 
+def test_active_model_keeps_steering_thrust_when_asked_to_turn_hard_and_slow_down() -> None:
+    """A water jet does not turn without thrust: at the nozzle limit the yaw request wins, so a
+    hard turn entered too fast still gets the yaw acceleration it asks for (the boat used to cut
+    the throttle to slow down and lose its turn at square corners)."""
+    model = toy_model()
+    cfg = ActiveModelConfig(compensate_model_error=False, nozzle_max_rad=math.radians(40))
+    ctl = ActiveModelController(model, cfg)
+    nu = np.array([3.0, 0.0, 0.0])
+    target = ControlTarget(course_rad=math.radians(3.0), speed_mps=2.0, is_heading=True)
+    out = ctl.update(nav_from(0.0, 0, 0, 0.0, nu), target, 0.01, NO_SATURATION)
+    assert out.nozzle_rad == pytest.approx(cfg.nozzle_max_rad) and out.throttle < 1.0
+    r_d = desired_turn_rate(cfg.heading, math.radians(3.0), 0.0, 3.0)
+    nu_dot = model.derivative(nu, out.throttle, out.nozzle_rad)
+    assert nu_dot[2] == pytest.approx(cfg.rate_k_per_s * r_d, rel=1e-6)
+
+
 def _closed_loop(ctl: object, model: QLPVModel, disturbance: np.ndarray, heading_cmd: float,
                  speed_cmd: float, duration_s: float) -> tuple[list[float], list[float]]:
     """Controller + actuator mapper on a qLPV plant with an additive disturbance (Eq. 5)."""
