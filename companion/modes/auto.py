@@ -39,6 +39,12 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 CMD_NAV_LAUNCH_AT = 31000
+LAUNCH_HEADING_TOL_DEG = 10.0
+"""Bow within this many degrees of the launch bearing before the launcher may fire."""
+LAUNCH_MAX_DIST_M = 8.0
+"""Farther than this from the launch point, the boat goes back to it before turning to fire."""
+LAUNCH_MAX_SPEED_MPS = 1.8
+"""'Stopped' for a water jet holding a heading: steerage way is about 1.5 m/s in SITL."""
 CMD_NAV_SAMPLE_HERE = 31001
 NAV_COMMANDS = frozenset({mi.CMD_NAV_WAYPOINT, mi.CMD_NAV_LOITER_UNLIM, mi.CMD_NAV_LOITER_TIME,
                           mi.CMD_NAV_LOITER_TURNS, mi.CMD_NAV_RETURN_TO_LAUNCH, mi.CMD_NAV_DELAY,
@@ -64,6 +70,7 @@ class AutoMode(NavMode):
         self._job: Any = None
         self._fire: asyncio.Task[str | None] | None = None
         self._launch_bearing = 0.0
+        self._launch_steer: _HeadingTask | None = None
 
     # -- mode interface ------------------------------------------------------------------
     def requirements(self, vehicle: Vehicle) -> str | None:
@@ -269,6 +276,7 @@ class AutoMode(NavMode):
             bearing = math.radians(item.param1) if math.isfinite(item.param1) else nav.heading_rad
             self._launch_bearing = bearing
             self.task = StationTask(params, point, bearing)
+            self._launch_steer = _HeadingTask(bearing, self.task, speed_mps=0.0)
             return False
         return True
 
@@ -299,15 +307,27 @@ class AutoMode(NavMode):
         return bool(self._job.done.done())
 
     def _launch(self, vehicle: Vehicle, nav: NavState, item: MissionItem) -> bool:
+        """Bow on the bearing, slowed to steerage way, hold, fire.
+
+        A water jet cannot reverse and needs thrust to steer, so "stop" means the slowest
+        speed at which it still holds a heading: the controller is asked for zero speed on the
+        bearing and the launcher fires once the bow has stayed within
+        ``LAUNCH_HEADING_TOL_DEG`` at no more than ``LAUNCH_MAX_SPEED_MPS`` for ``hold`` s.
+        """
         if self._fire is not None:
             return self._fire.done()
         err = abs(wrap_pi(self._launch_bearing - nav.heading_rad))
         hold = item.param2 if item.param2 > 0 else (
             vehicle.ctx.params.get("USV_LNCH_HOLD_S") if "USV_LNCH_HOLD_S" in vehicle.ctx.params else 3.0)
-        if err > math.radians(10.0) or nav.speed_over_ground_mps > 0.7:
+        station = self._launch_steer.inner if self._launch_steer is not None else None
+        if station is not None and station.distance_m > LAUNCH_MAX_DIST_M:
+            self._since_s = nav.t_s  # carried off the point while turning: station-keep back to it
+            self.task = station
+            return False
+        # steer for the bearing asking for zero speed: the jet keeps only steerage way
+        self.task = self._launch_steer
+        if err > math.radians(LAUNCH_HEADING_TOL_DEG) or nav.speed_over_ground_mps > LAUNCH_MAX_SPEED_MPS:
             self._since_s = nav.t_s
-            # turn on the spot: a water jet needs a little thrust to steer
-            self.task = _HeadingTask(self._launch_bearing, self.task)
             return False
         if nav.t_s - self._since_s < hold:
             return False
@@ -325,8 +345,9 @@ class AutoMode(NavMode):
 class _HeadingTask:
     """Point the bow at ``heading_rad`` at walking speed while staying near the launch point."""
 
-    def __init__(self, heading_rad: float, inner: Any) -> None:
+    def __init__(self, heading_rad: float, inner: Any, speed_mps: float = 0.3) -> None:
         self.heading_rad = heading_rad
+        self.speed_mps = speed_mps
         self.inner: Any = inner.inner if isinstance(inner, _HeadingTask) else inner
         self.frame, self.point = self.inner.frame, self.inner.point
         self.distance_m = 0.0
@@ -335,4 +356,4 @@ class _HeadingTask:
     def step(self, nav: NavState, dt_s: float) -> ControlTarget:
         self.inner.step(nav, dt_s)
         self.distance_m = self.inner.distance_m
-        return ControlTarget(self.heading_rad, 0.3, is_heading=True)
+        return ControlTarget(self.heading_rad, self.speed_mps, is_heading=True)
