@@ -49,6 +49,9 @@ PARAMS: tuple[ParamDef, ...] = (
              "alone (0).", is_int=True, choices=((0, "Off"), (1, "On"))),
     ParamDef("USV_AM_DNU_TC", 1.0, 0.0, 10.0, "s",
              "Active model: low-pass time constant on delta_nu (wave filtering: do not chase wave forces)."),
+    ParamDef("USV_MAN_TIMEOUT", 1.0, 0.2, 10.0, "s",
+             "MANUAL/CRUISE: pilot input (MAVLink MANUAL_CONTROL, else the RC receiver) older than this is "
+             "ignored; in MANUAL the outputs then go safe (throttle idle, nozzle centred)."),
     ParamDef("USV_NOZ_MAX", 60.0, 5.0, 60.0, "deg", "Largest nozzle deflection either side."),
     ParamDef("USV_NOZ_RATE", 120.0, 10.0, 720.0, "deg/s", "Nozzle servo slew rate."),
     ParamDef("USV_THR_RATE", 100.0, 5.0, 1000.0, "%/s", "Throttle slew rate."),

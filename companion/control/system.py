@@ -135,10 +135,17 @@ class ControlSystem:
 
     def idle(self, nav: NavState, *, ignition_on: bool = True) -> ActuatorCommand:
         """Engine idle, nozzle centred (slewed), integrators left alone."""
+        return self.direct(nav, 0.0, 0.0, ignition_on=ignition_on)
+
+    def direct(self, nav: NavState, nozzle_rad: float, throttle: float, *,
+               ignition_on: bool = True) -> ActuatorCommand:
+        """Pass a nozzle angle and throttle (MANUAL) through the actuator limits and slew rates."""
         dt = 0.01 if self._last_t_s is None else min(DT_MAX_S, max(DT_MIN_S, nav.t_s - self._last_t_s))
         self._last_t_s = nav.t_s
-        nozzle, throttle, _ = self.mapper.apply(0.0, 0.0, dt)
-        cmd = ActuatorCommand(t_s=nav.t_s, nozzle_rad=nozzle, throttle=throttle, ignition_on=ignition_on)
+        if not (math.isfinite(nozzle_rad) and math.isfinite(throttle)):
+            nozzle_rad, throttle = 0.0, 0.0
+        nozzle, thr, _ = self.mapper.apply(nozzle_rad, throttle, dt)
+        cmd = ActuatorCommand(t_s=nav.t_s, nozzle_rad=nozzle, throttle=thr, ignition_on=ignition_on)
         self._cmd.publish(cmd)
         return cmd
 

@@ -25,6 +25,7 @@ from companion.mavlink import identity, telemetry
 from companion.mavlink.command_service import CommandService
 from companion.mavlink.commands import registry_of
 from companion.mavlink.ftp import FtpService
+from companion.mavlink.manual_control import register_manual_control
 from companion.mavlink.mission_service import MissionService
 from companion.mavlink.param_service import ParamService
 from companion.mavlink.vehicle_commands import MODE_GUIDED, register_vehicle_commands
@@ -72,6 +73,7 @@ class MavlinkService(BaseService):
         d.on("REQUEST_DATA_STREAM", self._on_request_data_stream)
         d.on("SET_MODE", self._on_set_mode)
         d.on("SET_POSITION_TARGET_GLOBAL_INT", self._on_position_target)
+        register_manual_control(ctx, links)
         self._failsafe_gcs = False
         self._failsafe_engine = False
         ctx.extras["mavlink"] = self

@@ -2,10 +2,11 @@
 
 ArduPilot Rover has no course-hold mode (issue 12251).  Number 20 is outside Rover's mode numbers
 (0-16) so ground stations that decode Rover modes never confuse it; it is announced in
-AVAILABLE_MODES with MAV_STANDARD_MODE_CRUISE.  RC channel 1 (the steering stick, or
-MANUAL_CONTROL mapped onto it) turns the held heading at up to USV_TURN_MAX times the stick
-deflection; a DO_CHANGE_SPEED (``vehicle.speed_override_mps``) changes the held speed.  Stick
-centred: the boat holds its heading (the bow stays where it was; it does not crab).
+AVAILABLE_MODES with MAV_STANDARD_MODE_CRUISE.  The pilot's steering (MAVLink MANUAL_CONTROL
+``y`` from a ground station, else RC channel 1; :mod:`companion.control.manual_input`) turns the
+held heading at up to USV_TURN_MAX times the stick deflection; a DO_CHANGE_SPEED
+(``vehicle.speed_override_mps``) changes the held speed.  Stick centred: the boat holds its
+heading (the bow stays where it was; it does not crab).
 """
 
 from __future__ import annotations
@@ -13,23 +14,14 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
+from companion.control.manual_input import pilot_input
 from companion.control.target import ControlTarget
-from companion.messages import NavState, RcInput
+from companion.messages import NavState
 from companion.modes.base import STANDARD_MODE_CRUISE, requires_position
 from companion.modes.navigation import NavMode
 
 if TYPE_CHECKING:
     from companion.vehicle import Vehicle
-
-STICK_DEADBAND = 0.05
-
-
-def stick(channels_us: tuple[int, ...], channel: int) -> float:
-    """Normalised stick -1..1 of a 1-based RC channel (1500 us centre, +-400 us), 0 if absent."""
-    if len(channels_us) < channel or not 800 <= channels_us[channel - 1] <= 2200:
-        return 0.0
-    value = max(-1.0, min(1.0, (channels_us[channel - 1] - 1500) / 400.0))
-    return 0.0 if abs(value) < STICK_DEADBAND else value
 
 
 class CruiseMode(NavMode):
@@ -58,10 +50,11 @@ class CruiseMode(NavMode):
 
     def update(self, vehicle: Vehicle, nav: NavState) -> None:
         dt = self.dt(nav)
-        rc = vehicle.ctx.bus.topic("rc_in", RcInput).latest()
-        if rc is not None and vehicle.ctx.clock.now_s() - rc.t_s < 1.0:
-            turn_max = math.radians(vehicle.ctx.params.get("USV_TURN_MAX"))
-            self.heading_rad = (self.heading_rad + stick(rc.channels_us, 1) * turn_max * dt) % (2 * math.pi)
+        ctx = vehicle.ctx
+        inp = pilot_input(ctx.bus, ctx.clock.now_s(), ctx.params.get("USV_MAN_TIMEOUT"))
+        if inp is not None:
+            turn_max = math.radians(ctx.params.get("USV_TURN_MAX"))
+            self.heading_rad = (self.heading_rad + inp.steering * turn_max * dt) % (2 * math.pi)
         override = vehicle.speed_override_mps
         if override is not None and override != self._override and math.isfinite(override):
             self.speed_mps = max(0.0, override)

@@ -1,12 +1,26 @@
-"""MANUAL (Rover 0): the RC transmitter or MAVLink MANUAL_CONTROL drives nozzle and throttle.
+"""MANUAL (Rover 0): the pilot's sticks drive nozzle and throttle directly.
 
-Minimal version from the MAVLink issue so arming and mode changes work end to end; the
-guidance/control issue owns the behaviour (passthrough of MANUAL_CONTROL).
+Pilot input (:mod:`companion.control.manual_input`) is MAVLink MANUAL_CONTROL from a ground
+station (``y`` steering, ``z`` throttle, as ArduPilot Rover reads them) or, without a fresh one,
+the RC receiver.  Steering -1..1 becomes the nozzle angle (+-USV_NOZ_MAX, positive = starboard),
+throttle 0..1 the throttle, through the actuator limits and slew rates.  With no fresh input for
+USV_MAN_TIMEOUT (the ground station went quiet and no receiver), or disarmed, the outputs go to
+their safe state: throttle idle, nozzle centred (the boat then drifts).  A change of input
+source (ground station lost, RC receiver taking over) is announced with a STATUSTEXT.
 """
 
 from __future__ import annotations
 
+import math
+from typing import TYPE_CHECKING
+
+from companion.control.manual_input import pilot_input
+from companion.control.system import control_of
+from companion.messages import NavState
 from companion.modes.base import Mode
+
+if TYPE_CHECKING:
+    from companion.vehicle import Vehicle
 
 
 class ManualMode(Mode):
@@ -15,3 +29,27 @@ class ManualMode(Mode):
     standard_mode = None
     description = "Manual: RC or MANUAL_CONTROL input goes straight to nozzle and throttle."
     manual_input = True
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._source: str | None = None
+
+    def enter(self, vehicle: Vehicle) -> None:
+        self._source = None
+        control_of(vehicle.ctx).reset()
+
+    def update(self, vehicle: Vehicle, nav: NavState) -> None:
+        ctx = vehicle.ctx
+        control = control_of(ctx)
+        inp = pilot_input(ctx.bus, ctx.clock.now_s(), ctx.params.get("USV_MAN_TIMEOUT"))
+        source = None if inp is None else inp.source
+        if source != self._source and self._source is not None:
+            lost = "ground-station input lost" if self._source == "gcs" else "RC input lost"
+            then = "RC receiver in control" if source == "rc" else "throttle idle, nozzle centred"
+            vehicle.status(f"MANUAL: {lost}; {then}" if source != "gcs" else "MANUAL: ground-station input")
+        self._source = source
+        if inp is None or not vehicle.armed:
+            control.idle(nav, ignition_on=vehicle.armed)
+            return
+        nozzle_max = math.radians(ctx.params.get("USV_NOZ_MAX"))
+        control.direct(nav, inp.steering * nozzle_max, inp.throttle, ignition_on=True)
