@@ -11,6 +11,9 @@ and B acts on the input only through ``w = T [sin delta, cos delta]``.  Feedback
     r_dot_d = k_r (r_d - r),     r_d = sat(k_psi e_psi, r_max) + r_ff     (heading, critically
     u_dot_d = sat(k_u (u_d - u), -a_dec, a_acc)                            damped for k_r = 4 k_psi)
 
+plus, in the yaw row, the feed-forward ``r_dot_ff`` = d/dt r_d obtained through a first-order
+command filter (command-filtered backstepping: Farrell et al., IEEE TAC 2009; Fossen 2021 ch. 16):
+without it the heading error decays with a lag of 1/k_r behind its design law and overshoots;
 and solves the two rows for ``w``:  ``T sin delta = (r_dot_d - [A nu]_r - dnu_r) / b_r``,
 ``T cos delta = (u_dot_d - [A nu]_u - dnu_u) / b_u``.  Then ``delta = atan2(w_sin, w_cos)``, the
 normalised thrust ``T~ = |w|`` and the throttle from the model's thrust map
@@ -53,6 +56,12 @@ class ActiveModelConfig:
     """k_u: bandwidth of the speed error dynamics (1/s)."""
     accel_max_mps2: float = 1.5
     decel_max_mps2: float = 1.0
+    rate_ff_tau_s: float = 0.2
+    """Command filter on the derivative of the desired turn rate, fed forward into the yaw
+    acceleration demand (backstepping); 0 disables the feed-forward."""
+    rate_ff_max_radps2: float = 1.0
+    """Bound on that feed-forward (rad/s^2), so a jump of the desired course (a new leg) does
+    not turn into a yaw-acceleration spike."""
     compensate_model_error: bool = True
     model_error_tau_s: float = 1.0
     """Low-pass time constant on delta_nu: compensate wind, drift and model mismatch, but do not
@@ -86,9 +95,13 @@ class ActiveModelController:
             raise ValueError(f"model {model.name!r} has no surge/yaw control authority (B = {b.tolist()})")
         self.last_delta_nu = (0.0, 0.0, 0.0)
         self._dnu_lp = [LowPass(self.cfg.model_error_tau_s, 0.0) for _ in range(3)]
+        self._last_rd: float | None = None
+        self._rd_dot_lp = LowPass(self.cfg.rate_ff_tau_s, 0.0)
 
     def reset(self, nav: NavState) -> None:
         self.crab.reset()
+        self._last_rd = None
+        self._rd_dot_lp.value = 0.0
 
     def _dnu(self, dt_s: float) -> tuple[float, float, float]:
         if not self.cfg.compensate_model_error or self.delta_nu_source is None:
@@ -99,6 +112,18 @@ class ActiveModelController:
             self.last_delta_nu = (lp[0].step(dn[0], dt_s), lp[1].step(dn[1], dt_s), lp[2].step(dn[2], dt_s))
         return self.last_delta_nu
 
+    def _rd_dot(self, r_d: float, dt_s: float) -> float:
+        """Derivative of the virtual control ``r_d`` through a first-order command filter
+        (command-filtered backstepping), bounded; 0 when disabled or on the first step."""
+        c = self.cfg
+        if c.rate_ff_tau_s <= 0.0 or self._last_rd is None or dt_s <= 0.0:
+            self._last_rd = r_d
+            return 0.0
+        raw = (r_d - self._last_rd) / dt_s
+        self._last_rd = r_d
+        rd_dot = self._rd_dot_lp.step(raw, dt_s)
+        return max(-c.rate_ff_max_radps2, min(c.rate_ff_max_radps2, rd_dot))
+
     def update(self, nav: NavState, target: ControlTarget, dt_s: float, sat: Saturation) -> ControlOutput:
         c = self.cfg
         self.crab.update(nav, dt_s)
@@ -108,7 +133,7 @@ class ActiveModelController:
         nu = np.array([nav.u_mps, nav.v_mps, nav.r_radps])
         f = self.model.a_of_nu(nu) @ nu
         dnu = self._dnu(dt_s)
-        r_dot_d = c.rate_k_per_s * (r_d - nav.r_radps)
+        r_dot_d = c.rate_k_per_s * (r_d - nav.r_radps) + self._rd_dot(r_d, dt_s)
         u_dot_d = c.speed_k_per_s * (target.speed_mps - nav.u_mps)
         u_dot_d = min(c.accel_max_mps2, max(-c.decel_max_mps2, u_dot_d))
         w_sin = (r_dot_d - f[2] - dnu[2]) / self._b_r

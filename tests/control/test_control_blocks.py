@@ -155,6 +155,20 @@ def test_model_error_compensation_removes_the_steady_offset_of_the_nominal_law()
     assert abs(h_cmp[-1]) < math.radians(0.05) and abs(s_cmp[-1]) < 0.005
 
 
+def test_turn_rate_feedforward_removes_the_heading_overshoot_of_the_active_model() -> None:
+    """Command-filtered backstepping: feeding d/dt r_d forward keeps the heading from overshooting
+    a step that the law without it overshoots (plant == model, no disturbance)."""
+    model = toy_model()
+    overshoot = {}
+    for tau in (0.0, 0.2):
+        cfg = ActiveModelConfig(compensate_model_error=False, rate_k_per_s=4.0, rate_ff_tau_s=tau)
+        ctl = ActiveModelController(model, cfg)
+        errors, _ = _closed_loop(ctl, model, np.zeros(3), 1.0, 5.0, 15.0)
+        overshoot[tau] = max(0.0, -min(errors))
+    assert overshoot[0.0] > math.radians(0.2)
+    assert overshoot[0.2] < 0.5 * overshoot[0.0]
+
+
 def test_pid_family_removes_the_steady_offset_with_integral_action() -> None:
     model = toy_model()
     cfg = PidConfig(cruise_throttle=0.5, cruise_speed_mps=3.0, speed_ref_mps=3.0)
