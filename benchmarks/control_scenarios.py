@@ -73,6 +73,29 @@ def speed_step(ctrl_type: int, model: QLPVModel, seed: int, quick: bool = False)
             "rise_10_90_s": None if rise is None else round(rise, 2)}
 
 
+def speed_wave_floor(model: QLPVModel, seed: int, quick: bool = False) -> dict[str, Any]:
+    """What the waves alone do to the surge speed: 6 m/s in the speed-step weather, then the
+    throttle frozen (heading still held) for ``hold_s``.  The standard deviation of the surge
+    speed about its trend and its largest excursion (in % of the 2 -> 6 m/s step) are the floor
+    below which no speed controller can push the steady RMS and the overshoot figures."""
+    rig = Rig(0, Environment(seed=seed, **WEATHER), model)
+    hold_s = 10.0 if quick else 20.0
+    target = ControlTarget(0.0, 6.0, is_heading=True)
+    for _ in range(int(40.0 / 0.01)):
+        rig.step(target)
+    throttle = rig.throttle
+    speeds = []
+    for _ in range(int(hold_s / 0.01)):
+        out = rig.controller.update(rig.nav(), target, 0.01, rig.mapper.saturation)
+        nozzle, _, _ = rig.mapper.apply(out.nozzle_rad, throttle, 0.01)
+        rig.plant.step(0.01, nozzle, throttle, True)
+        speeds.append(rig.plant.state.u_mps)
+    t = np.arange(len(speeds))
+    resid = np.asarray(speeds) - np.polyval(np.polyfit(t, speeds, 1), t)
+    return {"surge_rms_mps": round(float(np.std(resid)), 4),
+            "surge_peak_pct": round(float(np.max(resid)) / 4.0 * 100.0, 2)}
+
+
 def _dist_to_segment(p: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
     ax, ay = b[0] - a[0], b[1] - a[1]
     t = max(0.0, min(1.0, ((p[0] - a[0]) * ax + (p[1] - a[1]) * ay) / (ax * ax + ay * ay)))
