@@ -71,3 +71,21 @@ async def running_vehicle(state_dir: Path, udp_ports: list[int], *, tcp_port: in
     finally:
         app.request_stop()
         await asyncio.wait_for(task, 5.0)
+
+
+@contextlib.asynccontextmanager
+async def feeding_nav(ctx: Context, period_s: float = 0.05) -> AsyncIterator[None]:
+    """Publish a nav sample every ``period_s`` of wall time while the block runs (a live GPS-INS)."""
+
+    async def feed() -> None:
+        while True:
+            publish_nav(ctx)
+            await asyncio.sleep(period_s)
+
+    feeder = asyncio.create_task(feed())
+    try:
+        yield
+    finally:
+        feeder.cancel()
+        with contextlib.suppress(asyncio.CancelledError):
+            await feeder

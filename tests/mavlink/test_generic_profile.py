@@ -8,7 +8,7 @@ from pathlib import Path
 
 from companion.link.dialect import mav
 from tests.mavlink.gcs import AsyncGcs, free_port
-from tests.mavlink.helpers import publish_nav, running_vehicle
+from tests.mavlink.helpers import feeding_nav, running_vehicle
 
 
 async def test_generic_profile_identity_standard_modes_and_bytewise_ints(state_dir: Path) -> None:
@@ -17,13 +17,7 @@ async def test_generic_profile_identity_standard_modes_and_bytewise_ints(state_d
         hb = await gcs.connect()
         assert (hb.type, hb.autopilot) == (mav.MAV_TYPE_SURFACE_BOAT, mav.MAV_AUTOPILOT_GENERIC)
 
-        async def feed() -> None:
-            while True:
-                publish_nav(ctx)
-                await asyncio.sleep(0.05)
-
-        feeder = asyncio.create_task(feed())
-        try:
+        async with feeding_nav(ctx):
             await asyncio.sleep(0.2)
             ack = await gcs.command(mav.MAV_CMD_DO_SET_STANDARD_MODE, mav.MAV_STANDARD_MODE_POSITION_HOLD)
             assert ack.result == mav.MAV_RESULT_ACCEPTED
@@ -32,8 +26,6 @@ async def test_generic_profile_identity_standard_modes_and_bytewise_ints(state_d
             assert cur.custom_mode == 5  # LOITER behind the standard mode
             ack = await gcs.command(mav.MAV_CMD_DO_SET_STANDARD_MODE, mav.MAV_STANDARD_MODE_TAKEOFF)
             assert ack.result == mav.MAV_RESULT_DENIED  # a boat does not take off
-        finally:
-            feeder.cancel()
 
         gcs.send(mav.MAVLink_param_request_read_message(1, 1, b"FRAME_CLASS", -1))
         pv = await gcs.wait("PARAM_VALUE", lambda m: m.param_id == "FRAME_CLASS")

@@ -11,7 +11,7 @@ from companion.link.dialect import mav
 from companion.mavlink.commands import CommandRequest, CommandResult, register_command
 from companion.vehicle import vehicle_of
 from tests.mavlink.gcs import AsyncGcs, free_port
-from tests.mavlink.helpers import publish_nav, running_vehicle
+from tests.mavlink.helpers import feeding_nav, publish_nav, running_vehicle
 
 PREARM = mav.MAV_SYS_STATUS_PREARM_CHECK
 GPS = mav.MAV_SYS_STATUS_SENSOR_GPS
@@ -28,21 +28,13 @@ async def test_heartbeat_identity_and_health(state_dir: Path) -> None:
         banner = [m.text for m in gcs.received if m.get_type() == "STATUSTEXT"]
         assert any(t.startswith("usv-companion") for t in banner), banner
 
-        async def feed() -> None:
-            while True:
-                publish_nav(ctx)
-                await asyncio.sleep(0.05)
-
-        feeder = asyncio.create_task(feed())
-        try:
+        async with feeding_nav(ctx):
             st = await gcs.wait("SYS_STATUS", lambda m: m.onboard_control_sensors_health & PREARM, 3.0)
             assert st.onboard_control_sensors_health & GPS
             gp = await gcs.wait("GLOBAL_POSITION_INT")
             assert abs(gp.lat / 1e7 - 41.77) < 1e-6
             home = await gcs.wait("HOME_POSITION", timeout_s=6.0)
             assert abs(home.latitude / 1e7 - 41.77) < 1e-6
-        finally:
-            feeder.cancel()
 
 
 async def test_boot_statustext_names_product(state_dir: Path) -> None:
