@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from companion.control.actuator import Saturation
+from companion.control.am_speed import AmSpeedConfig, AmSpeedLaw
 from companion.control.pid import LowPass
 from companion.control.pid_family import HeadingLoopConfig, desired_turn_rate
 from companion.control.target import ControlOutput, ControlTarget, CrabEstimator
@@ -94,6 +95,11 @@ class ActiveModelController:
         if self._b_u <= 0 or self._b_r == 0:
             raise ValueError(f"model {model.name!r} has no surge/yaw control authority (B = {b.tolist()})")
         self.last_delta_nu = (0.0, 0.0, 0.0)
+        self.raw_delta_nu = (0.0, 0.0, 0.0)
+        self.speed_law = AmSpeedLaw(model, AmSpeedConfig(
+            k_per_s=self.cfg.speed_k_per_s, accel_max_mps2=self.cfg.accel_max_mps2,
+            decel_max_mps2=self.cfg.decel_max_mps2, model_error_tau_s=self.cfg.model_error_tau_s,
+            min_thrust=self.cfg.min_thrust))
         self._dnu_lp = [LowPass(self.cfg.model_error_tau_s, 0.0) for _ in range(3)]
         self._last_rd: float | None = None
         self._rd_dot_lp = LowPass(self.cfg.rate_ff_tau_s, 0.0)
@@ -109,6 +115,7 @@ class ActiveModelController:
         dn = self.delta_nu_source()
         if dn is not None and all(math.isfinite(x) for x in dn):
             lp = self._dnu_lp
+            self.raw_delta_nu = (dn[0], dn[1], dn[2])
             self.last_delta_nu = (lp[0].step(dn[0], dt_s), lp[1].step(dn[1], dt_s), lp[2].step(dn[2], dt_s))
         return self.last_delta_nu
 
@@ -134,10 +141,9 @@ class ActiveModelController:
         f = self.model.a_of_nu(nu) @ nu
         dnu = self._dnu(dt_s)
         r_dot_d = c.rate_k_per_s * (r_d - nav.r_radps) + self._rd_dot(r_d, dt_s)
-        u_dot_d = c.speed_k_per_s * (target.speed_mps - nav.u_mps)
-        u_dot_d = min(c.accel_max_mps2, max(-c.decel_max_mps2, u_dot_d))
         w_sin = (r_dot_d - f[2] - dnu[2]) / self._b_r
-        w_cos = max(c.min_thrust, (u_dot_d - f[0] - dnu[0]) / self._b_u)
+        dnu_u_raw = self.raw_delta_nu[0] if c.compensate_model_error else 0.0
+        w_cos = self.speed_law.thrust_demand(nav, target.speed_mps, dnu_u_raw, dt_s)
         delta = math.atan2(w_sin, w_cos)
         if abs(delta) > c.nozzle_max_rad:
             # Nozzle limit: a water jet only turns while it pushes, so the yaw row has priority
