@@ -6,7 +6,10 @@ manoeuvres with other seeds in a 0.1 m/s current and Hs 0.05 m waves (stated, re
 magnitudes for flood water).  For every validation: ``j[model][mode][dof]``, whether the
 qLPV model beats both baselines in free run per DOF, and the active/no-model-error ratio
 of the chapter's Table 4 (target <= 1/3).  The chapter's Q is read as a rate (Q dt per step);
-the per-step reading is reported for the sine validation too.
+the per-step reading is reported for the sine validation too.  Per validation also: the
+held-model-error bound (:mod:`companion.models.persistence`: the smallest active/no-error ratio
+any delta_nu estimator can reach on that log) and the ratio with UKF noise identified from the
+training log (:mod:`companion.models.noise_fit`).
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ from typing import Any
 from companion.estimation.ukf import UKFSettings
 from companion.models.base import DOF_NAMES
 from companion.models.logs import Record, record_from_columns
+from companion.models.noise_fit import fit_ukf_noise
 from companion.models.pipeline import JTable, identify_models, ratios, validate
 
 CURRENT = "0.1,60"
@@ -67,9 +71,18 @@ def run(quick: bool) -> dict[str, Any]:
         "validation_disturbance": {"current": CURRENT, "waves_hs_m": WAVES},
         "q_discretization": "rate",
     }
+    noise = fit_ukf_noise(models["qlpv"], train)
+    out["ukf_identified"] = {"q_diag": [float(f"{q:.3g}") for q in noise.q_diag],
+                             "r_diag": [float(f"{r:.3g}") for r in noise.r_diag]}
     for name, kind, seed, current, waves in VALIDATIONS[: 2 if quick else None]:
         rec = simulated_record(kind, seed, current, waves, duration_s=30.0 if quick else 60.0)
-        out[name] = summary(validate(models, rec).table)
+        val = validate(models, rec, identified_settings=noise)
+        out[name] = summary(val.table)
+        if val.held_bound is not None and val.active_identified is not None:
+            out[name]["held_error_bound"] = val.held_bound.as_dict()
+            ahead = val.table["qlpv"]["ahead"]
+            out[name]["active_identified_noise_over_qlpv_ahead"] = {
+                d: round(val.active_identified[d] / ahead[d], 3) for d in DOF_NAMES}
         if name == "sine":
             literal = validate(models, rec, settings=UKFSettings(q_discretization="per_step")).table
             out["sine_q_per_step"] = summary(literal)

@@ -158,6 +158,10 @@ SETTINGS: tuple[Setting, ...] = (
     Setting("models.params_file", "",
             "Identified qLPV model (params.toml from 'usv identify'); empty: <state_dir>/model/params.toml "
             "if present, else the shipped default identified on the simulator."),
+    Setting("models.ukf_noise", "chapter",
+            "Noise covariances of the active-model UKF: 'chapter' (Eq. 13, the default) or 'identified' "
+            "(the [ukf] table 'usv identify' writes into params.toml; falls back to Eq. 13 without it).",
+            choices=("chapter", "identified")),
 )
 
 SETTINGS_BY_KEY: dict[str, Setting] = {s.key: s for s in SETTINGS}

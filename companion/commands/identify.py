@@ -45,6 +45,7 @@ def run(args: argparse.Namespace) -> int:
     from companion.estimation.ukf import UKFSettings
     from companion.models.identify import IdentificationError
     from companion.models.logs import LogError, read_log
+    from companion.models.noise_fit import fit_ukf_noise
     from companion.models.pipeline import ProgressBar, format_table, identify_models, ratios, validate
     from companion.models.report import write_report
 
@@ -67,8 +68,9 @@ def run(args: argparse.Namespace) -> int:
             print(f"warning: {w}", file=sys.stderr)
     settings = UKFSettings(q_discretization="per_step" if args.q_per_step else "rate")
     try:
+        noise = fit_ukf_noise(fits["qlpv"].model, train, args.horizon, args.window)
         result = validate({n: f.model for n, f in fits.items()}, val, horizon_s=args.horizon,
-                          settings=settings)
+                          settings=settings, identified_settings=noise)
     except (ValueError, IdentificationError) as exc:
         raise UserError(f"validation failed: {exc}") from None
     command = "usv identify " + " ".join(shlex.quote(a) for a in sys.argv[2:]) if len(sys.argv) > 2 else ""
@@ -81,6 +83,9 @@ def run(args: argparse.Namespace) -> int:
                           "reference": result.reference, "horizon_s": args.horizon,
                           "q_discretization": settings.q_discretization,
                           "j": result.table, "active_over_qlpv": ratios(result.table),
+                          "held_error_bound": result.held_bound.as_dict() if result.held_bound else None,
+                          "ukf_identified": {"q_diag": list(noise.q_diag), "r_diag": list(noise.r_diag),
+                                             "j_ahead_active": result.active_identified},
                           "files": [str(f) for f in files]}, indent=2))
     else:
         print(format_table(result.table))

@@ -18,9 +18,9 @@ from pathlib import Path
 import numpy as np
 
 from companion.app import Context
-from companion.estimation.ukf import UKF, make_ukf
+from companion.estimation.ukf import UKF, UKFSettings, make_ukf
 from companion.messages import ActuatorCommand, ModelError, NavState
-from companion.models.params_file import load_model_params, resolve_params_path
+from companion.models.params_file import load_model_params, load_ukf_settings, resolve_params_path
 from companion.models.qlpv import QLPVModel
 
 log = logging.getLogger(__name__)
@@ -29,24 +29,47 @@ MAX_GAP_S = 0.5
 """A longer gap between samples re-initialises the filter from the measurement (Eq. 7)."""
 
 
-def load_companion_model(ctx: Context) -> QLPVModel:
-    """The qLPV model the companion uses (configured path, state dir, or shipped default)."""
+def _params_path(ctx: Context) -> Path:
     try:
         configured = str(ctx.config["models.params_file"])
     except (KeyError, TypeError):
         configured = ""
-    path = resolve_params_path(Path(ctx.config.state_dir()), configured)
+    return resolve_params_path(Path(ctx.config.state_dir()), configured)
+
+
+def load_companion_model(ctx: Context) -> QLPVModel:
+    """The qLPV model the companion uses (configured path, state dir, or shipped default)."""
+    path = _params_path(ctx)
     model = load_model_params(path)
     log.info("qLPV model parameters from %s", path)
     return model
 
 
+def load_companion_ukf_settings(ctx: Context) -> UKFSettings:
+    """The UKF noise the companion uses: the chapter's Eq. 13 unless the setting
+    ``models.ukf_noise`` is "identified" and params.toml has a ``[ukf]`` table."""
+    try:
+        choice = str(ctx.config["models.ukf_noise"])
+    except (KeyError, TypeError):
+        choice = "chapter"
+    if choice != "identified":
+        return UKFSettings()
+    path = _params_path(ctx)
+    settings = load_ukf_settings(path)
+    if settings is None:
+        log.warning("models.ukf_noise is 'identified' but %s has no [ukf] table; using Eq. 13", path)
+        return UKFSettings()
+    log.info("UKF noise identified, from %s", path)
+    return settings
+
+
 class EstimatorStage:
     """Callable stage ``(nav) -> None`` running the UKF on every navigation sample."""
 
-    def __init__(self, ctx: Context, model: QLPVModel) -> None:
+    def __init__(self, ctx: Context, model: QLPVModel, settings: UKFSettings | None = None) -> None:
         self.model = model
-        self.ukf: UKF = make_ukf(model)
+        self.settings = settings or UKFSettings()
+        self.ukf: UKF = make_ukf(model, self.settings)
         self._cmd = ctx.bus.topic("actuator_cmd", ActuatorCommand)
         self._out = ctx.bus.topic("model_error", ModelError)
         self._t_last: float | None = None
@@ -64,7 +87,7 @@ class EstimatorStage:
         if self._t_last is None or not 0.0 < nav.t_s - self._t_last <= MAX_GAP_S:
             if self._t_last is not None and nav.t_s <= self._t_last:
                 self._warn(f"navigation time went from {self._t_last} to {nav.t_s}; filter restarted")
-            self.ukf = make_ukf(self.model)
+            self.ukf = make_ukf(self.model, self.settings)
             self.ukf.initialize(z)
         else:
             self.ukf.step(z, thr, nozzle, nav.t_s - self._t_last)
@@ -82,4 +105,4 @@ class EstimatorStage:
 
 def make_estimator_stage(ctx: Context) -> Callable[[NavState], None]:
     """The control-loop stage that estimates and publishes the model error delta_nu."""
-    return EstimatorStage(ctx, load_companion_model(ctx))
+    return EstimatorStage(ctx, load_companion_model(ctx), load_companion_ukf_settings(ctx))

@@ -20,9 +20,10 @@ import numpy as np
 from companion.estimation.ukf import UKFSettings
 from companion.models.base import DOF_NAMES, LinearInParamsModel
 from companion.models.baselines import LinearizedModel, NomotoSideslipModel
-from companion.models.evaluate import MODES, Evaluation, j_table, reference_name
+from companion.models.evaluate import MODES, Evaluation, evaluate, j_table, reference_name
 from companion.models.identify import FitResult, Progress, fit_least_squares, fit_qlpv, refine_output_error
 from companion.models.logs import Record
+from companion.models.persistence import HeldErrorBound, held_error_bound
 
 MODEL_ORDER: tuple[str, ...] = ("linearized", "nomoto_sideslip", "qlpv", "qlpv_oe")
 MODEL_TITLES: dict[str, str] = {"linearized": "Linearized", "nomoto_sideslip": "Nomoto with sideslip",
@@ -60,14 +61,29 @@ class Validation:
     evaluations: dict[str, Evaluation]
     reference: str
     settings: UKFSettings = field(default_factory=UKFSettings)
+    held_bound: HeldErrorBound | None = None
+    """For the qLPV model: the smallest active/no-model-error ratio any held delta_nu can reach
+    on this record (:mod:`companion.models.persistence`)."""
+    identified_settings: UKFSettings | None = None
+    """UKF noise identified from the training logs (:mod:`companion.models.noise_fit`), if given."""
+    active_identified: dict[str, float] | None = None
+    """J (1 s ahead, delta_nu held) of the qLPV model with ``identified_settings``."""
 
 
 def validate(models: Mapping[str, LinearInParamsModel], rec: Record, *, horizon_s: float = 1.0,
-             settings: UKFSettings | None = None) -> Validation:
-    """J per model, prediction mode and DOF on ``rec`` (see :mod:`companion.models.evaluate`)."""
+             settings: UKFSettings | None = None, identified_settings: UKFSettings | None = None
+             ) -> Validation:
+    """J per model, prediction mode and DOF on ``rec`` (see :mod:`companion.models.evaluate`),
+    the held-model-error bound of the qLPV model, and (given ``identified_settings``) the qLPV
+    model's active 1-s-ahead J with that UKF noise too."""
     settings = settings or UKFSettings()
     table, evals = j_table(models, rec, horizon_s, settings)
-    return Validation(rec, table, evals, reference_name(rec), settings)
+    qlpv = models.get("qlpv")
+    bound = held_error_bound(qlpv, rec, horizon_s) if qlpv is not None else None
+    active_id = None
+    if qlpv is not None and identified_settings is not None:
+        active_id = evaluate(qlpv, rec, horizon_s, identified_settings).j["ahead_active"]
+    return Validation(rec, table, evals, reference_name(rec), settings, bound, identified_settings, active_id)
 
 
 def ratios(table: JTable, model: str = "qlpv") -> dict[str, dict[str, float]]:

@@ -22,8 +22,10 @@ from companion.bus import Bus
 from companion.clock import SimClock
 from companion.config import default_config
 from companion.estimation.service import make_estimator_stage
-from companion.models.base import DOF_NAMES
-from companion.models.params_file import dump_model_params, load_model_params
+from companion.models.base import DOF_NAMES, LinearInParamsModel
+from companion.models.logs import Record
+from companion.models.params_file import dump_model_params, load_model_params, load_ukf_settings
+from companion.models.persistence import held_error_bound
 from companion.models.pipeline import JTable, identify_models, ratios, validate
 from companion.param_table import all_param_defs
 from companion.params import ParamStore
@@ -32,7 +34,7 @@ from tests.conftest import usv_command
 
 
 @pytest.fixture(scope="module")
-def tables() -> dict[str, JTable]:
+def fitted() -> tuple[dict[str, LinearInParamsModel], dict[str, Record]]:
     train = [simulated_record("sine", 1, duration_s=90.0)]
     models = {n: f.model for n, f in identify_models(train).items()}
     vals = {
@@ -41,6 +43,12 @@ def tables() -> dict[str, JTable]:
         "zigzag": simulated_record("zigzag", 3, CURRENT, WAVES),
         "random": simulated_record("random", 4, CURRENT, WAVES),
     }
+    return models, vals
+
+
+@pytest.fixture(scope="module")
+def tables(fitted: tuple[dict[str, LinearInParamsModel], dict[str, Record]]) -> dict[str, JTable]:
+    models, vals = fitted
     return {k: validate(models, rec).table for k, rec in vals.items()}
 
 
@@ -82,12 +90,26 @@ def test_qlpv_beats_both_baselines_in_free_run_on_random(tables: dict[str, JTabl
 @pytest.mark.parametrize("validation", ["sine_calm", "sine", "zigzag", "random"])
 @pytest.mark.xfail(
     strict=True,
-    reason="measured: with the chapter's Q (as a rate) and R, the UKF's delta_nu "
-    "follows the 0.1 m/s GPS velocity noise (R_v = 0.002 is 5x below the sensor's 0.01) and "
-    "wave-frequency motion (Tp ~1 s); held over 1 s it makes predictions worse (ratio 1.4-4.9)",
+    reason="measured: ratio 1.4-4.9 with the chapter's Q (as a rate) and R.  Not reachable on these "
+    "logs: even the exact model error held over 1 s gives 0.5-1.9 (the bound test below); its "
+    "correlation with itself 1 s later is -0.25..0.7",
 )
 def test_active_model_one_second_ahead_is_a_third_of_qlpv(tables: dict[str, JTable], validation: str) -> None:
     _active_one_third(tables[validation])
+
+
+@pytest.mark.parametrize("validation", ["sine_calm", "sine", "zigzag", "random"])
+def test_no_held_model_error_reaches_one_third_on_simulator_logs(
+    fitted: tuple[dict[str, LinearInParamsModel], dict[str, Record]], validation: str
+) -> None:
+    """Why the test above fails: on the simulator's logs the qLPV model error does not persist
+    over the 1 s horizon, so even the exact model error (from the truth columns) held over it
+    (a perfect UKF) stays above one third of the no-model-error J on some DOF.  If the simulator or the model
+    changes so that it does persist, this fails and the criterion above becomes reachable."""
+    models, vals = fitted
+    bound = held_error_bound(models["qlpv"], vals[validation])
+    assert bound.reference.startswith("truth")
+    assert max(bound.ratio.values()) > 1 / 3, bound.as_dict()
 
 
 def test_active_model_helps_where_the_model_error_is_slow(tables: dict[str, JTable]) -> None:
@@ -134,8 +156,13 @@ def test_usv_identify_writes_report_and_loadable_params(tmp_path: Path) -> None:
         assert (tmp_path / "rep" / name).stat().st_size > 0, name
     model = load_model_params(tmp_path / "rep" / "params.toml")
     assert model.param_table()["u"]["Tcos"] > 0
+    noise = load_ukf_settings(tmp_path / "rep" / "params.toml")
+    assert noise is not None and noise.r_diag == tuple(data["ukf_identified"]["r_diag"])
+    bound = data["held_error_bound"]
+    assert bound["reference"].startswith("truth") and set(bound["oracle_ratio"]) == {"u", "v", "r"}
     report = (tmp_path / "rep" / "report.md").read_text()
     assert "chapter Table 3 (published, real boat, reference only)" in report
+    assert "Can a held model error reach one third" in report
     text = _usv(
         "identify",
         str(tmp_path / "train.csv"),
