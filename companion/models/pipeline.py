@@ -62,8 +62,8 @@ class Validation:
     reference: str
     settings: UKFSettings = field(default_factory=UKFSettings)
     held_bound: HeldErrorBound | None = None
-    """For the qLPV model: the smallest active/no-model-error ratio any held delta_nu can reach
-    on this record (:mod:`companion.models.persistence`)."""
+    """For the qLPV model: model-error persistence over the horizon and the active/no-error ratio
+    a perfect UKF would give on this record (:mod:`companion.models.persistence`)."""
     identified_settings: UKFSettings | None = None
     """UKF noise identified from the training logs (:mod:`companion.models.noise_fit`), if given."""
     active_identified: dict[str, float] | None = None
