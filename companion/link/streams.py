@@ -34,7 +34,7 @@ USV_SAMPLER_STATUS = 43001
 USV_MODEL_STATUS = 43002
 
 MAX_RATE_HZ = 50.0
-"""Highest stream rate a link accepts (the scheduler ticks at 50 Hz)."""
+"""Highest stream rate a link accepts (the scheduler never wakes more often than this)."""
 
 DEFAULT_RATES_HZ: dict[int, float] = {
     HEARTBEAT: 1.0,
@@ -120,6 +120,15 @@ class StreamRates:
         for group in groups:
             for msg_id in group:
                 self.set_rate_hz(msg_id, rate_hz if start else 0.0)
+
+    def next_due_s(self, now_s: float) -> float | None:
+        """When the next message of this link is due (``now_s`` if one was just (re)configured
+        and not yet scheduled), or ``None`` when no stream is on."""
+        if not self._interval_s:
+            return None
+        if any(msg_id not in self._next_s for msg_id in self._interval_s):
+            return now_s
+        return min(self._next_s[msg_id] for msg_id in self._interval_s)
 
     def due(self, now_s: float) -> list[int]:
         """Message ids whose time has come; their next time is scheduled."""

@@ -36,6 +36,8 @@ from companion.vehicle import SEVERITY_CRITICAL, SEVERITY_INFO, SEVERITY_WARNING
 log = logging.getLogger(__name__)
 
 TICK_S = 1.0 / streams.MAX_RATE_HZ
+STREAM_IDLE_S = 0.1
+"""Longest the telemetry scheduler sleeps: a new link or a rate request waits at most this."""
 """Stream scheduler period (vehicle clock)."""
 STATUSTEXT_MAX = 50
 
@@ -101,8 +103,20 @@ class MavlinkService(BaseService):
 
     # -- telemetry ------------------------------------------------------------------------
     async def _stream_loop(self) -> None:
-        async for now_s in periodic(self.ctx.clock, TICK_S):
+        """Wake when the next stream message of any link is due (at most every TICK_S, at least
+        every STREAM_IDLE_S so new links and rate changes are served promptly), not on a fixed
+        50 Hz tick: at the default rates that is a few wake-ups per second instead of 50, which
+        is most of the telemetry's cost in lockstep SITL."""
+        clock = self.ctx.clock
+        while True:
+            now_s = clock.now_s()
             self.stream_once(now_s)
+            await clock.sleep(self._stream_sleep_s(now_s))
+
+    def _stream_sleep_s(self, now_s: float) -> float:
+        dues = (link.rates.next_due_s(now_s) for link in tuple(self.links.links))
+        wake_s = min((t for t in dues if t is not None), default=now_s + STREAM_IDLE_S)
+        return min(STREAM_IDLE_S, max(TICK_S, wake_s - now_s))
 
     def stream_once(self, now_s: float) -> None:
         """Send every message that is due on every link (each built once per tick)."""
