@@ -19,6 +19,22 @@ Both laws follow Fossen, Handbook of Marine Craft Hydrodynamics and Motion Contr
       chi_d = pi_p - beta_hat - atan(y_e / Delta)
       d/dt beta_hat = gamma * Delta / sqrt(Delta^2 + y_e^2) * y_e
 
+Two additions make the laws hold up through corners on any day's waves, not only on the seeds
+they were tuned on:
+
+- time-varying look-ahead (Lekkas and Fossen 2012; Fossen 2021 section 12.4)::
+
+      Delta(y_e) = Delta_min + (Delta_max - Delta_min) * exp(-gamma_D * y_e^2)
+
+  on the line (small ``y_e``, wave-driven) the long ``Delta_max`` keeps the course calm; after a
+  corner the boat is metres off the new leg and the short ``Delta_min`` brings it back in a few
+  metres instead of a whole look-ahead length (the overshoot no longer reaches the middle of the
+  leg);
+- the integral (or adaptive) state is frozen while the boat is before the start of its leg
+  (``x_e < 0``: the early switch of turn anticipation).  There the cross-track error is the
+  geometry of the coming turn, not a current, and integrating it winds up a bias that the boat
+  then carries into the leg.
+
 The integral state ``y_int`` or the crab-angle estimate ``beta_hat`` is what makes the boat crab
 into a cross-current instead of settling off the line (ArduPilot issue 19306).  The output is a
 desired *course over ground* plus its feed-forward rate; the course controller turns it into a
@@ -44,7 +60,11 @@ class LosGains:
     """Tuning of the LOS laws (names as in Fossen's handbook)."""
 
     lookahead_m: float = 8.0
-    """Delta: look-ahead distance; smaller converges faster but oscillates."""
+    """Delta (Delta_max): look-ahead distance on the line; smaller converges faster but oscillates."""
+    lookahead_min_m: float = 8.0
+    """Delta_min: look-ahead far off the line (time-varying look-ahead); >= ``lookahead_m`` disables it."""
+    lookahead_gamma_per_m2: float = 1.0
+    """gamma_D: how fast the look-ahead shrinks from Delta_max to Delta_min with the cross-track error."""
     ki: float = 0.02
     """ILOS integral gain Ki (1/m)."""
     kappa: float = 2.0
@@ -55,7 +75,8 @@ class LosGains:
     """Bound on the integral/adaptive crab correction (projection)."""
 
     def __post_init__(self) -> None:
-        if not (self.lookahead_m > 0.0 and self.ki >= 0.0 and self.kappa > 0.0 and self.gamma >= 0.0):
+        if not (self.lookahead_m > 0.0 and self.lookahead_min_m > 0.0 and self.lookahead_gamma_per_m2 >= 0.0
+                and self.ki >= 0.0 and self.kappa > 0.0 and self.gamma >= 0.0):
             raise ValueError(f"invalid LOS gains {self}")
 
 
@@ -83,6 +104,12 @@ def leg_errors(p1_ne: tuple[float, float], p2_ne: tuple[float, float],
     c, s = math.cos(pi_p), math.sin(pi_p)
     return LegErrors(along_m=ex * c + ey * s, cross_m=-ex * s + ey * c, leg_length_m=length,
                      path_angle_rad=pi_p)
+
+
+def lookahead(gains: LosGains, cross_m: float) -> float:
+    """Time-varying look-ahead ``Delta(y_e)`` (m)."""
+    d_max, d_min = gains.lookahead_m, min(gains.lookahead_min_m, gains.lookahead_m)
+    return d_min + (d_max - d_min) * math.exp(-gains.lookahead_gamma_per_m2 * cross_m * cross_m)
 
 
 @dataclass(frozen=True, slots=True)
@@ -131,23 +158,29 @@ class LosFollower:
             raise RuntimeError("LosFollower.update before set_leg")
         g = self.gains
         err = leg_errors(*self._leg, pos_ne)
-        y_e, delta = err.cross_m, g.lookahead_m
+        y_e = err.cross_m
+        delta = lookahead(g, y_e)
+        # The feed-forward rate uses the local gain 1/Delta, not the full slope d/dy_e (y_e/Delta(y_e)):
+        # that slope peaks near |y_e| = 1 m, where it would turn wave-driven cross-track motion into
+        # turn-rate demand (measured: corner overshoot grows on the square benchmark).
+        slope = 1.0 / delta
+        # before the leg starts (turn anticipation) the error is the corner, not a current
+        adapt = err.along_m >= 0.0
         if self.los_type is LosType.ILOS:
-            kp = 1.0 / delta
-            arg = kp * y_e + g.ki * self.y_int_m
+            arg = y_e / delta + g.ki * self.y_int_m
             correction = math.atan(arg)
-            y_int_dot = delta * y_e / (delta**2 + (y_e + g.kappa * self.y_int_m) ** 2)
+            y_int_dot = delta * y_e / (delta**2 + (y_e + g.kappa * self.y_int_m) ** 2) if adapt else 0.0
             self.y_int_m += y_int_dot * dt_s
             limit = math.tan(g.beta_max_rad) / g.ki if g.ki > 0 else 0.0
             self.y_int_m = min(limit, max(-limit, self.y_int_m))
             chi = err.path_angle_rad - correction
-            # d/dt atan(kp*y_e) with d/dt y_e = U sin(chi - pi_p)
+            # d/dt atan(y_e/Delta + Ki y_int) with d/dt y_e = U sin(chi - pi_p)
             y_e_dot = speed_mps * math.sin(chi - err.path_angle_rad)
-            rate = -(kp * y_e_dot + g.ki * y_int_dot) / (1.0 + arg * arg)
+            rate = -(slope * y_e_dot + g.ki * y_int_dot) / (1.0 + arg * arg)
         else:
-            beta_dot = g.gamma * delta / math.hypot(delta, y_e) * y_e
+            beta_dot = g.gamma * delta / math.hypot(delta, y_e) * y_e if adapt else 0.0
             self.beta_hat_rad = min(g.beta_max_rad, max(-g.beta_max_rad, self.beta_hat_rad + beta_dot * dt_s))
             chi = err.path_angle_rad - self.beta_hat_rad - math.atan(y_e / delta)
             y_e_dot = speed_mps * math.sin(chi - err.path_angle_rad)
-            rate = -beta_dot - (y_e_dot / delta) / (1.0 + (y_e / delta) ** 2)
+            rate = -beta_dot - (slope * y_e_dot) / (1.0 + (y_e / delta) ** 2)
         return LosOutput(course_rad=wrap_2pi(chi), course_rate_radps=rate, errors=err)

@@ -20,7 +20,13 @@ PARAMS: tuple[ParamDef, ...] = (
              "Path following law (Fossen 2021 sec. 12.4): 0 = integral LOS, 1 = adaptive LOS. Both crab "
              "into a cross-current instead of drifting off the line.", is_int=True,
              choices=((0, "ILOS"), (1, "ALOS"))),
-    ParamDef("USV_LOS_DELTA", 9.0, 1.0, 100.0, "m", "LOS look-ahead distance Delta."),
+    ParamDef("USV_LOS_DELTA", 9.0, 1.0, 100.0, "m", "LOS look-ahead distance Delta on the line."),
+    ParamDef("USV_LOS_DMIN", 4.0, 1.0, 100.0, "m",
+             "LOS look-ahead far off the line (time-varying look-ahead, Lekkas and Fossen 2012): after a "
+             "corner the boat converges onto the new leg within a few metres. >= USV_LOS_DELTA: constant."),
+    ParamDef("USV_LOS_DGAM", 1.0, 0.0, 100.0, "1/m^2",
+             "How fast the look-ahead shrinks from USV_LOS_DELTA to USV_LOS_DMIN with the cross-track error "
+             "(exp(-gamma y_e^2))."),
     ParamDef("USV_LOS_KI", 0.04, 0.0, 1.0, "1/m", "ILOS integral gain Ki."),
     ParamDef("USV_ALOS_GAMMA", 0.002, 0.0, 0.1, "rad/(m s)", "ALOS crab-angle adaptation gain gamma."),
     ParamDef("USV_WP_TURN_SPD", 2.0, 0.5, 10.0, "m/s",
@@ -34,7 +40,7 @@ PARAMS: tuple[ParamDef, ...] = (
              "Smallest circle the boat holds under control (default and minimum radius of point tracking). "
              "At full nozzle the simulated boat turns on about 1.3 m; 2 m leaves steering margin."),
     ParamDef("USV_STN_P", 0.25, 0.01, 2.0, "1/s", "Station keeping: ground speed per metre of error."),
-    ParamDef("USV_STN_I", 0.01, 0.0, 0.5, "1/s^2", "Station keeping: current-estimate integral gain."),
+    ParamDef("USV_STN_I", 0.04, 0.0, 0.5, "1/s^2", "Station keeping: current-estimate integral gain."),
     ParamDef("USV_STN_VMAX", 2.0, 0.2, 10.0, "m/s", "Station keeping: largest approach speed."),
 )
 
@@ -44,8 +50,9 @@ class ParamReader(Protocol):
 
 
 def los_gains(p: ParamReader) -> LosGains:
-    return LosGains(lookahead_m=p.get("USV_LOS_DELTA"), ki=p.get("USV_LOS_KI"), gamma=p.get("USV_ALOS_GAMMA"),
-                    beta_max_rad=math.radians(30.0))
+    return LosGains(lookahead_m=p.get("USV_LOS_DELTA"), lookahead_min_m=p.get("USV_LOS_DMIN"),
+                    lookahead_gamma_per_m2=p.get("USV_LOS_DGAM"), ki=p.get("USV_LOS_KI"),
+                    gamma=p.get("USV_ALOS_GAMMA"), beta_max_rad=math.radians(30.0))
 
 
 def leg_config(p: ParamReader, speed_mps: float, accept_radius_m: float) -> LegConfig:

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from companion.guidance.circle import CircleTracker
 from companion.guidance.geo import LocalFrame, distance_bearing, valid_lat_lon, wrap_pi
-from companion.guidance.los import LosFollower, LosGains, LosType, leg_errors
+from companion.guidance.los import LosFollower, LosGains, LosType, leg_errors, lookahead
 from companion.guidance.station import StationKeeper
 
 
@@ -71,6 +71,45 @@ def test_integral_and_adaptive_los_crab_into_cross_current(los_type: LosType) ->
 def test_plain_los_without_integral_drifts_off_the_line() -> None:
     cross = _run_los(LosFollower(LosGains(lookahead_m=8.0, ki=0.0), LosType.ILOS), (0.0, 0.5))
     assert abs(cross[-1]) > 0.5  # steady offset of about Delta * tan(asin(c / U))
+
+
+def test_look_ahead_shrinks_off_the_line_and_is_long_on_it() -> None:
+    g = LosGains(lookahead_m=9.0, lookahead_min_m=4.0, lookahead_gamma_per_m2=1.0)
+    assert lookahead(g, 0.0) == pytest.approx(9.0)
+    assert lookahead(g, 0.2) > 8.5  # wave-sized errors: the calm long look-ahead
+    assert lookahead(g, 3.0) == pytest.approx(4.0, abs=0.01)  # after a corner: converge fast
+    assert lookahead(g, -3.0) == lookahead(g, 3.0)
+    # Delta_min >= Delta_max: the constant look-ahead of the plain laws
+    assert lookahead(LosGains(lookahead_m=8.0, lookahead_min_m=8.0), 5.0) == pytest.approx(8.0)
+
+
+def test_shorter_look_ahead_off_the_line_brings_the_boat_back_in_fewer_metres() -> None:
+    def metres_to_half_a_metre(gains: LosGains) -> float:
+        los = LosFollower(gains, LosType.ILOS)
+        los.set_leg((0.0, 0.0), (1000.0, 0.0))
+        x, y, psi, dt, u = 0.0, 2.5, 0.0, 0.02, 3.0
+        while abs(y) > 0.5:
+            out = los.update((x, y), u, dt)
+            psi += wrap_pi(out.course_rad - psi) * dt / 0.5
+            x, y = x + u * math.cos(psi) * dt, y + u * math.sin(psi) * dt
+        return x
+
+    constant = metres_to_half_a_metre(LosGains(lookahead_m=9.0, lookahead_min_m=9.0, ki=0.0))
+    varying = metres_to_half_a_metre(LosGains(lookahead_m=9.0, lookahead_min_m=4.0, ki=0.0))
+    assert varying < 0.7 * constant
+
+
+@pytest.mark.parametrize("los_type", [LosType.ILOS, LosType.ALOS])
+def test_integral_state_does_not_wind_up_before_the_leg_starts(los_type: LosType) -> None:
+    """Turn anticipation switches to the next leg before the corner: the boat is then metres
+    beside the new leg but before its start; that is the corner, not a current."""
+    los = LosFollower(LosGains(lookahead_m=8.0, ki=0.05, gamma=0.01), los_type)
+    los.set_leg((0.0, 0.0), (50.0, 0.0))
+    for _ in range(200):
+        los.update((-3.0, 4.0), 2.0, 0.01)
+    assert los.y_int_m == 0.0 and los.beta_hat_rad == 0.0
+    los.update((1.0, 4.0), 2.0, 0.01)  # on the leg: integrates again
+    assert los.y_int_m != 0.0 or los.beta_hat_rad != 0.0
 
 
 def _run_circle(tracker: CircleTracker, start_ne: tuple[float, float], current_ne: tuple[float, float],
