@@ -21,7 +21,15 @@ from companion.estimation.ukf import UKFSettings
 from companion.models.base import DOF_NAMES, LinearInParamsModel
 from companion.models.baselines import LinearizedModel, NomotoSideslipModel
 from companion.models.evaluate import MODES, Evaluation, evaluate, j_table, reference_name
-from companion.models.identify import FitResult, Progress, fit_least_squares, fit_qlpv, refine_output_error
+from companion.models.identify import (
+    QLPV_DISSIPATIVE,
+    FitResult,
+    Progress,
+    fit_least_squares,
+    fit_qlpv,
+    refine_instrumental,
+    refine_output_error,
+)
 from companion.models.logs import Record
 from companion.models.persistence import HeldErrorBound, held_error_bound
 
@@ -35,9 +43,17 @@ JTable = dict[str, dict[str, dict[str, float]]]
 """``table[model][mode][dof]``: J of Eq. 12 (a fraction; 0.05 = 5 %)."""
 
 
+ESTIMATORS: tuple[str, ...] = ("iv", "ls")
+"""``iv``: least squares, then instrumental variables with the qLPV damping kept dissipative
+(the default; see :func:`companion.models.identify.refine_instrumental`); ``ls``: least
+squares only.  Every model is fitted with the same smoothing and the same estimator."""
+
+
 def identify_models(train: Sequence[Record], *, window_s: float = 2.0, refine: bool = False,
-                    progress: Progress | None = None) -> dict[str, FitResult]:
-    """Least-squares fits of every model on the training records (+ output-error qLPV)."""
+                    progress: Progress | None = None, estimator: str = "iv") -> dict[str, FitResult]:
+    """Fits of every model on the training records (+ output-error qLPV when ``refine``)."""
+    if estimator not in ESTIMATORS:
+        raise ValueError(f"estimator {estimator!r}: accepted: {', '.join(ESTIMATORS)}")
     zeros = np.zeros((3, 6))
     fits = {
         "linearized": fit_least_squares(LinearizedModel(zeros, name="linearized"), train, window_s),
@@ -45,6 +61,10 @@ def identify_models(train: Sequence[Record], *, window_s: float = 2.0, refine: b
                                              window_s),
         "qlpv": fit_qlpv(train, window_s, name="qlpv"),
     }
+    if estimator == "iv":
+        fits = {name: refine_instrumental(fit, train, window_s,
+                                          bounds=QLPV_DISSIPATIVE if name == "qlpv" else None)
+                for name, fit in fits.items()}
     if refine:
         oe = refine_output_error(fits["qlpv"], train, progress=progress)
         oe.model = replace(oe.model, name="qlpv_oe")

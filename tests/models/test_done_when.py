@@ -68,21 +68,10 @@ def test_qlpv_beats_both_baselines_in_free_run_on_sine(tables: dict[str, JTable]
     _qlpv_beats_baselines(tables[validation])
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="measured (window 2 s): zig-zag free-run J_v qLPV 59 % vs 40/41 %; the "
-    "sine training run never reaches the zig-zag's long full-nozzle turns, the |v|v, |r|r terms "
-    "extrapolate",
-)
 def test_qlpv_beats_both_baselines_in_free_run_on_zigzag(tables: dict[str, JTable]) -> None:
     _qlpv_beats_baselines(tables["zigzag"])
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="measured (window 2 s): random free-run J_r qLPV 37 % vs 44/36 % "
-    "(Nomoto); the random run varies throttle, the sine training run does not",
-)
 def test_qlpv_beats_both_baselines_in_free_run_on_random(tables: dict[str, JTable]) -> None:
     _qlpv_beats_baselines(tables["random"])
 
