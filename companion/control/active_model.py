@@ -98,14 +98,14 @@ class ActiveModelController:
         self.raw_delta_nu = (0.0, 0.0, 0.0)
         self.speed_law = AmSpeedLaw(model, AmSpeedConfig(
             k_per_s=self.cfg.speed_k_per_s, accel_max_mps2=self.cfg.accel_max_mps2,
-            decel_max_mps2=self.cfg.decel_max_mps2, model_error_tau_s=self.cfg.model_error_tau_s,
-            min_thrust=self.cfg.min_thrust))
+            decel_max_mps2=self.cfg.decel_max_mps2, min_thrust=self.cfg.min_thrust))
         self._dnu_lp = [LowPass(self.cfg.model_error_tau_s, 0.0) for _ in range(3)]
         self._last_rd: float | None = None
         self._rd_dot_lp = LowPass(self.cfg.rate_ff_tau_s, 0.0)
 
     def reset(self, nav: NavState) -> None:
         self.crab.reset()
+        self.speed_law.reset()
         self._last_rd = None
         self._rd_dot_lp.value = 0.0
 
