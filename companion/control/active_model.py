@@ -154,4 +154,5 @@ class ActiveModelController:
         else:
             thrust = math.hypot(w_sin, w_cos)
         throttle = throttle_for_thrust(self.model, thrust, nav.u_mps)
+        self.speed_law.note_command(min(1.0, throttle), delta, dt_s)
         return ControlOutput(nozzle_rad=delta, throttle=min(1.0, throttle), heading_cmd_rad=psi_d)

@@ -120,3 +120,40 @@ def test_no_speed_controller_can_cancel_the_wave_surge_motion() -> None:
     assert floor["surge_rms_mps"] > 0.02
     assert floor["oracle_rms_mps"] > 0.8 * floor["surge_rms_mps"]
     assert floor["throttle_at_6mps"] > 0.8  # little headroom above the operating point
+
+
+def test_engine_lag_correction_tracks_what_the_lag_puts_into_delta_nu() -> None:
+    """After a throttle jump the engine is behind: the UKF sees less surge acceleration than the
+    sent throttle predicts, so the correction is negative at first and gone after a few lags."""
+    model = toy_model()
+    law = AmSpeedLaw(model, AmSpeedConfig(engine_tau_s=0.4, throttle_rate_per_s=100.0))
+    law.note_command(0.3, 0.0, DT_S)
+    assert law.engine_lag_error(3.0) == 0.0
+    law.note_command(0.8, 0.0, DT_S)
+    first = law.engine_lag_error(3.0)
+    expected = float(model.b_matrix()[0, 1]) * float(model.thrust(0.3 + 0.5 * (1 - math.exp(-0.025)), 3.0)
+                                                     - model.thrust(0.8, 3.0))
+    assert first == pytest.approx(expected, rel=1e-6) and first < 0.0
+    for _ in range(int(3.0 / DT_S)):
+        law.note_command(0.8, 0.0, DT_S)
+    assert abs(law.engine_lag_error(3.0)) < 1e-3 * abs(first)
+    assert AmSpeedLaw(model).engine_lag_error(3.0) == 0.0  # off by default
+
+
+def calm_step_overshoot_pct(cfg: AmSpeedConfig) -> float:
+    model = plant_model()
+    rig = Rig(CTRL_ACTIVE_MODEL, Environment(seed=1), model)
+    law = AmSpeedLaw(model, cfg)
+    rig.controller.speed_law = law  # type: ignore[attr-defined]
+    for _ in range(int(20.0 / DT_S)):
+        rig.step(ControlTarget(0.0, 2.0, is_heading=True))
+    speeds = [rig.step(ControlTarget(0.0, 6.0, is_heading=True)).u_mps for _ in range(int(20.0 / DT_S))]
+    return (max(speeds) - 6.0) / 4.0 * 100.0
+
+
+def test_engine_lag_correction_removes_the_calm_water_step_overshoot() -> None:
+    """Without it the UKF's view of the engine lag is fed back and the 2 -> 6 m/s step overshoots
+    a little and rings slowly; with it the step is clean (calm water, real plant)."""
+    plain = calm_step_overshoot_pct(AmSpeedConfig())
+    corrected = calm_step_overshoot_pct(AmSpeedConfig(engine_tau_s=0.4))
+    assert corrected < 0.05 < plain
