@@ -55,12 +55,13 @@ Bounds = dict[tuple[int, str], tuple[float, float]]
 """(DOF index, regressor name) -> (lower, upper) bound on a lumped parameter."""
 QLPV_DISSIPATIVE: Bounds = {
     (0, "u"): (-np.inf, 0.0), (0, "|u|u"): (-np.inf, 0.0), (0, "Tcos"): (0.0, np.inf),
-    (1, "v"): (-np.inf, 0.0), (1, "|v|v"): (-np.inf, 0.0),
+    (1, "v"): (-np.inf, 0.0), (1, "|v|v"): (-np.inf, 0.0), (1, "Tsin"): (-np.inf, 0.0),
     (2, "r"): (-np.inf, 0.0), (2, "|r|r"): (-np.inf, 0.0), (2, "Tsin"): (0.0, np.inf),
 }
 """Physical signs of the qLPV model (Eq. 4): the diagonal damping of N0..N4 (X_u, X_|u|u,
-Y_v, Y_|v|v, N_r, N_|r|r) removes energy, and forward thrust and a starboard nozzle push the
-boat forward and turn it to starboard (B)."""
+Y_v, Y_|v|v, N_r, N_|r|r) removes energy, and the jet (B = M^-1 [0, -1, x_delta]^T for the
+sine input, x_delta < 0 at the stern) pushes the boat forward, the stern to port and the bow
+to starboard for a starboard nozzle."""
 
 
 class IdentificationError(ValueError):
@@ -316,9 +317,10 @@ def refine_instrumental(fit: FitResult, records: Sequence[Record], window_s: flo
 
 
 def refine_output_error(fit: FitResult, records: Sequence[Record], rate_hz: float = 10.0,
-                        max_nfev: int = 30, progress: Progress | None = None) -> FitResult:
+                        max_nfev: int = 30, progress: Progress | None = None,
+                        bounds: Bounds | None = None) -> FitResult:
     """Output-error refinement: minimise the free-run error (normalised per DOF) of all
-    non-zero parameters over the training records, starting from the least-squares fit."""
+    non-zero parameters over the training records, starting from ``fit`` (within ``bounds``)."""
     model = fit.model
     idx = np.flatnonzero(model.theta.ravel() != 0)
     decimated = []
@@ -343,7 +345,14 @@ def refine_output_error(fit: FitResult, records: Sequence[Record], rate_hz: floa
         return np.concatenate(out)
 
     p0 = model.theta.ravel()[idx]
-    res = least_squares(residuals, p0, x_scale=np.abs(p0) + 1e-6, max_nfev=max_nfev, method="trf")
+    lb, ub = np.full(idx.size, -np.inf), np.full(idx.size, np.inf)
+    for (j, name), (lo, hi) in (bounds or {}).items():
+        flat = j * model.theta.shape[1] + model.FEATURES.index(name)
+        if flat in idx:
+            lb[np.flatnonzero(idx == flat)], ub[np.flatnonzero(idx == flat)] = lo, hi
+    p0 = np.clip(p0, np.where(np.isinf(lb), lb, lb + 1e-9), np.where(np.isinf(ub), ub, ub - 1e-9))
+    res = least_squares(residuals, p0, x_scale=np.abs(p0) + 1e-6, max_nfev=max_nfev, method="trf",
+                        bounds=(lb, ub))
     th = model.theta.ravel().copy()
     th[idx] = res.x
     refined = model.with_theta(th.reshape(model.theta.shape))

@@ -66,7 +66,7 @@ def identify_models(train: Sequence[Record], *, window_s: float = 2.0, refine: b
                                           bounds=QLPV_DISSIPATIVE if name == "qlpv" else None)
                 for name, fit in fits.items()}
     if refine:
-        oe = refine_output_error(fits["qlpv"], train, progress=progress)
+        oe = refine_output_error(fits["qlpv"], train, progress=progress, bounds=QLPV_DISSIPATIVE)
         oe.model = replace(oe.model, name="qlpv_oe")
         fits["qlpv_oe"] = oe
     return fits
