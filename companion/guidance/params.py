@@ -31,7 +31,7 @@ PARAMS: tuple[ParamDef, ...] = (
     ParamDef("USV_ALOS_GAMMA", 0.002, 0.0, 0.1, "rad/(m s)", "ALOS crab-angle adaptation gain gamma."),
     ParamDef("USV_WP_TURN_SPD", 2.0, 0.5, 10.0, "m/s",
              "Speed through corners sharper than 30 degrees (the boat slows down before them)."),
-    ParamDef("USV_WP_YAW_LAG", 3.0, 0.0, 10.0, "s",
+    ParamDef("USV_WP_YAW_LAG", 2.5, 0.0, 10.0, "s",
              "Time the boat needs to build up its turn rate; turns at corners start this much earlier."),
     ParamDef("USV_CIRC_K", 1.0, 0.1, 20.0, "", "Point tracking: convergence gain onto the circle."),
     ParamDef("USV_CIRC_KI", 0.0, 0.0, 1.0, "1/s", "Point tracking: integral gain on the radial error."),

@@ -6,7 +6,11 @@ reached.  Reaching uses the acceptance radius (ArduPilot WP_RADIUS) *or* passing
 leg (along-track beyond its length), so a boat pushed wide by current never circles back for a
 waypoint.  Before a corner it slows to ``turn_speed_mps`` so that the turn radius (U / r_max)
 keeps the corner cut small, and it switches to the next leg one turn radius early (turn
-anticipation) so that the turn is an arc tangent to both legs.
+anticipation) so that the turn is an arc tangent to both legs.  The radius of that arc is the one
+the boat will actually turn on: ``U / r_max`` at the larger of the planned corner speed and the
+measured speed over ground (waves, a following current or a lagging speed loop can bring the boat
+to the corner faster than planned; an anticipation sized for the planned speed then swings it
+metres wide of the next leg).
 """
 
 from __future__ import annotations
@@ -30,7 +34,7 @@ class LegConfig:
     sharp_turn_rad: float = math.radians(30.0)
     turn_rate_max_radps: float = math.radians(45.0)
     decel_mps2: float = 0.4
-    yaw_lag_s: float = 3.0
+    yaw_lag_s: float = 2.5
     """Time the boat needs to build up its turn rate; the turn starts this much earlier."""
     """Planned deceleration before a corner (sets where slowing starts)."""
 
@@ -66,8 +70,9 @@ class LegNavigator:
             self.cfg = replace(self.cfg, speed_mps=speed_mps)
         self.los.set_leg(start, end)
 
-    def _corner(self) -> tuple[float, float]:
-        """(speed through the coming corner, anticipation distance before it)."""
+    def _corner(self, speed_mps: float | None = None) -> tuple[float, float]:
+        """(speed through the coming corner, anticipation distance before it); the turn radius is
+        sized for ``speed_mps`` (the measured speed over ground) when that is above the corner speed."""
         c = self.cfg
         if self.next_point is None:
             return c.speed_mps, 0.0
@@ -75,7 +80,7 @@ class LegNavigator:
         if turn < c.sharp_turn_rad:
             return c.speed_mps, 0.0
         v = min(c.speed_mps, c.turn_speed_mps)
-        radius = v / c.turn_rate_max_radps
+        radius = max(v, speed_mps or 0.0) / c.turn_rate_max_radps
         return v, radius * math.tan(0.5 * min(turn, math.radians(150.0))) + v * c.yaw_lag_s * turn / math.pi
 
     def update(self, pos_ne: Point, speed_mps: float, dt_s: float,
@@ -96,5 +101,7 @@ class LegNavigator:
         if course_rad is not None and abs(wrap_pi(out.course_rad - course_rad)) > c.sharp_turn_rad:
             speed = min(speed, c.turn_speed_mps)
         dist_end = math.hypot(pos_ne[0] - self.end[0], pos_ne[1] - self.end[1])
+        if self.next_point is not None:
+            lead = self._corner(speed_mps)[1]  # switch for the speed the boat has, not the planned one
         reached = remaining <= lead or dist_end <= c.accept_radius_m
         return LegStep(ControlTarget(out.course_rad, speed, out.course_rate_radps), err, reached)

@@ -12,6 +12,7 @@ from companion.guidance.circle import CircleTracker
 from companion.guidance.geo import LocalFrame, distance_bearing, valid_lat_lon, wrap_pi
 from companion.guidance.los import LosFollower, LosGains, LosType, leg_errors, lookahead
 from companion.guidance.station import StationKeeper
+from companion.guidance.waypoints import LegConfig, LegNavigator
 
 
 def test_one_degree_of_latitude_is_the_wgs84_meridian_arc() -> None:
@@ -110,6 +111,22 @@ def test_integral_state_does_not_wind_up_before_the_leg_starts(los_type: LosType
     assert los.y_int_m == 0.0 and los.beta_hat_rad == 0.0
     los.update((1.0, 4.0), 2.0, 0.01)  # on the leg: integrates again
     assert los.y_int_m != 0.0 or los.beta_hat_rad != 0.0
+
+
+def test_turn_anticipation_is_sized_for_the_speed_the_boat_actually_has() -> None:
+    """A boat arriving at a right-angle corner faster than the planned corner speed turns on a
+    wider circle, so it must start the turn earlier; at the planned speed it keeps the leg."""
+    def reached_at(remaining_m: float, sog_mps: float) -> bool:
+        nav = LegNavigator(LosFollower(LosGains()), LegConfig(speed_mps=5.0, turn_speed_mps=2.0,
+                                                              turn_rate_max_radps=math.radians(45.0),
+                                                              yaw_lag_s=2.5, accept_radius_m=1.0))
+        nav.set_leg((0.0, 0.0), (50.0, 0.0), (50.0, 50.0))
+        return nav.update((50.0 - remaining_m, 0.0), sog_mps, 0.01).reached
+
+    # planned 2 m/s: radius 2.5 m + 2.5 m of yaw lag -> switch 5.0 m before the corner
+    assert not reached_at(5.5, 2.0) and reached_at(4.5, 2.0)
+    # 3.5 m/s over ground at the same place: radius 4.5 m -> switch 7.0 m before
+    assert reached_at(5.5, 3.5) and reached_at(6.5, 3.5) and not reached_at(7.5, 3.5)
 
 
 def _run_circle(tracker: CircleTracker, start_ne: tuple[float, float], current_ne: tuple[float, float],
