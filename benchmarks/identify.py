@@ -68,6 +68,32 @@ def summary(table: JTable) -> dict[str, Any]:
     }
 
 
+HELD_OUT_SEEDS = (5, 6, 7)
+
+
+def held_out_free_run(models: dict[str, Any]) -> dict[str, Any]:
+    """Free-run J only (no UKF) on sine, zig-zag and random validations with further seeds (same
+    current and waves), to show whether the wins on the four named validations are seed luck."""
+    from companion.models.base import error_index
+    from companion.models.evaluate import reference
+    from companion.models.identify import smooth
+
+    out: dict[str, Any] = {}
+    for kind in ("sine", "zigzag", "random"):
+        for seed in HELD_OUT_SEEDS:
+            rec = simulated_record(kind, seed, CURRENT, WAVES)
+            nu0 = smooth(rec)[0][0]
+            j = {n: error_index(m.simulate(rec.t_s, nu0, rec.throttle, rec.delta_rad), reference(rec))
+                 for n, m in models.items()}
+            base = [min(j["linearized"][k], j["nomoto_sideslip"][k]) for k in range(3)]
+            out[f"{kind}_{seed}"] = {
+                "qlpv_beats_baselines": {d: bool(j["qlpv"][k] < base[k]) for k, d in enumerate(DOF_NAMES)},
+                "j_percent": {n: {d: round(100 * float(v[k]), 2) for k, d in enumerate(DOF_NAMES)}
+                              for n, v in j.items()},
+            }
+    return out
+
+
 def run(quick: bool) -> dict[str, Any]:
     t0 = time.perf_counter()
     duration = 30.0 if quick else 90.0
@@ -97,5 +123,7 @@ def run(quick: bool) -> dict[str, Any]:
         if name == "sine":
             literal = validate(models, rec, settings=UKFSettings(q_discretization="per_step")).table
             out["sine_q_per_step"] = summary(literal)
+    if not quick:
+        out["held_out_free_run"] = held_out_free_run(models)
     out["seconds"] = round(time.perf_counter() - t0, 1)
     return out
