@@ -86,6 +86,7 @@ class AutoMode(NavMode):
         vehicle.start_mission()
         self.speed_override = vehicle.speed_override_mps
         self._jumps_done = {}
+        self.task = None  # no crab estimate carried in from an earlier AUTO run
         nav = vehicle.nav()
         assert nav is not None
         self._last_point = (nav.lat_deg, nav.lon_deg)
@@ -215,7 +216,8 @@ class AutoMode(NavMode):
             start = here
         accept = item.param2 if c == mi.CMD_NAV_WAYPOINT and item.param2 > 0 else None
         nxt = self._next_point(vehicle, item.seq) if c == mi.CMD_NAV_WAYPOINT and item.param1 <= 0 else None
-        self.task = GotoTask(params, start, target, speed, accept, nxt)
+        carried = self.task.follower if isinstance(self.task, GotoTask) else None  # last leg's crab estimate
+        self.task = GotoTask(params, start, target, speed, accept, nxt, follower=carried)
         self.phase = "goto"
 
     def _run(self, vehicle: Vehicle, nav: NavState, item: MissionItem) -> bool:

@@ -53,12 +53,18 @@ class GotoTask:
 
     def __init__(self, params: ParamStore, start: tuple[float, float], end: tuple[float, float],
                  speed_mps: float, accept_radius_m: float | None = None,
-                 next_point: tuple[float, float] | None = None) -> None:
+                 next_point: tuple[float, float] | None = None, follower: LosFollower | None = None) -> None:
+        """``follower``: the previous leg's LOS follower, so the crab (integral/adaptive) estimate
+        of the current carries over a corner (scaled by the cosine of the turn) instead of being
+        learnt again on every leg; a new one when None."""
         self.frame = LocalFrame(*start)
         self.end = end
         radius = accept_radius_m if accept_radius_m and accept_radius_m > 0 else param(params, "WP_RADIUS")
-        los = LosFollower(los_gains(params), LosType(int(params.get("USV_LOS_TYPE"))))
-        self.nav = LegNavigator(los, leg_config(params, speed_mps, radius))
+        los_type = LosType(int(params.get("USV_LOS_TYPE")))
+        if follower is None or follower.los_type != los_type:
+            follower = LosFollower(los_gains(params), los_type)
+        self.follower = follower
+        self.nav = LegNavigator(follower, leg_config(params, speed_mps, radius))
         nxt = self.frame.to_ne(*next_point) if next_point is not None else None
         self.nav.set_leg((0.0, 0.0), self.frame.to_ne(*end), nxt)
         self.point = end

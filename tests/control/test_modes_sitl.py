@@ -191,3 +191,47 @@ async def test_auto_samples_water_while_circling_each_point_in_current() -> None
         # the sampler gates the pump on the *measured* position (USV_SMPL_ACC_M 2.5 m); the true
         # distance may exceed it by the GPS-INS error and one control period (measured: 2.55-2.6 m)
         assert far_while_pumping <= 2.75
+
+
+def _mid_leg_cross_track_m(track: list[tuple[float, float]], a: tuple[float, float],
+                           b: tuple[float, float]) -> float:
+    """Largest distance from the line a -> b of the points (flown on that leg) 10 m after a to
+    10 m before b."""
+    length = math.dist(a, b)
+    ux, uy = (b[0] - a[0]) / length, (b[1] - a[1]) / length
+    worst = 0.0
+    for n, e in track:
+        along = (n - a[0]) * ux + (e - a[1]) * uy
+        if 10.0 <= along <= length - 10.0:
+            worst = max(worst, abs(-(n - a[0]) * uy + (e - a[1]) * ux))
+    return worst
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="measured on the full stack with the shipped default model (identified from a 120 s sine at "
+    "30 % throttle): mid-leg max 0.97-1.82 m on seeds 1-3.  The bench rig's model (400 s rich "
+    "excitation) gives 0.29-0.41 m here, a model from 'usv identify' on a 300 s random + 120 s sine "
+    "log 0.19-0.64 m: the shipped default model is the limit, not guidance",
+)
+async def test_auto_square_in_cross_current_holds_the_middle_of_every_leg() -> None:
+    """The issue's square, flown as an AUTO mission on the full stack (active model): 50 m at
+    5 m/s, 0.5 m/s current across the first leg, 3 m/s wind, Hs 0.3 m waves.  The crab estimate
+    carries over each corner, so every leg after the first is held within 0.5 m in its middle."""
+    async with SitlHarness(seed=2, wind="3,45", current="0.5,90", waves="0.3", full_stack=True,
+                           params={"USV_CTRL_TYPE": CTRL_ACTIVE_MODEL, "WP_SPEED": 5.0}) as h:
+        vehicle = await _start(h)
+        frame = LocalFrame(*HOME)
+        corners = [(0.0, 0.0), (50.0, 0.0), (50.0, 50.0), (0.0, 50.0), (0.0, 0.0)]
+        plan = _plan(frame, [(mi.CMD_NAV_WAYPOINT, ne, {}) for ne in corners])
+        vehicle.missions.replace(MissionType.MISSION, plan)
+        assert vehicle.set_mode(10) is None
+        legs: dict[int, list[tuple[float, float]]] = {}  # mission seq being flown -> positions
+        for _ in range(1200):
+            await h.run_for(0.1)
+            legs.setdefault(vehicle.current_seq, []).append(_pos(h))
+            if vehicle.mission_state == MissionState.COMPLETE:
+                break
+        assert vehicle.mission_state == MissionState.COMPLETE
+        worst = [_mid_leg_cross_track_m(legs[seq], corners[seq - 2], corners[seq - 1]) for seq in (3, 4, 5)]
+        assert max(worst) <= 0.5, worst
