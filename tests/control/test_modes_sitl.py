@@ -210,9 +210,9 @@ def _mid_leg_cross_track_m(track: list[tuple[float, float]], a: tuple[float, flo
 @pytest.mark.xfail(
     strict=True,
     reason="measured on the full stack with the shipped default model (identified from a 120 s sine at "
-    "30 % throttle): mid-leg max 0.97-1.82 m on seeds 1-3.  The bench rig's model (400 s rich "
-    "excitation) gives 0.29-0.41 m here, a model from 'usv identify' on a 300 s random + 120 s sine "
-    "log 0.19-0.64 m: the shipped default model is the limit, not guidance",
+    "30 % throttle, instrumental variables): mid-leg max 0.68-1.49 m on seeds 1-3 (0.97-1.82 m with the "
+    "previous least-squares model).  The bench rig's model (400 s rich excitation) gives 0.29-0.41 m here: "
+    "the shipped default model is the limit, not guidance",
 )
 async def test_auto_square_in_cross_current_holds_the_middle_of_every_leg() -> None:
     """The issue's square, flown as an AUTO mission on the full stack (active model): 50 m at
