@@ -71,15 +71,19 @@ def _toml_str(text: str) -> str:
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
-def load_model_params(path: Path | str | None = None) -> QLPVModel:
-    """Load params.toml (default: the shipped :data:`DEFAULT_PARAMS_PATH`)."""
-    path = Path(path) if path is not None else DEFAULT_PARAMS_PATH
+def _read_toml(path: Path) -> dict[str, object]:
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        return tomllib.loads(path.read_text(encoding="utf-8"))
     except OSError as exc:
         raise ModelParamsError(f"{path}: cannot read model parameters ({exc.strerror or exc})") from None
     except tomllib.TOMLDecodeError as exc:
         raise ModelParamsError(f"{path}: not valid TOML ({exc})") from None
+
+
+def load_model_params(path: Path | str | None = None) -> QLPVModel:
+    """Load params.toml (default: the shipped :data:`DEFAULT_PARAMS_PATH`)."""
+    path = Path(path) if path is not None else DEFAULT_PARAMS_PATH
+    data = _read_toml(path)
     model = data.get("model")
     if not isinstance(model, dict):
         raise ModelParamsError(f"{path}: missing [model] table")
@@ -108,12 +112,7 @@ def load_ukf_settings(path: Path | str | None = None) -> UKFSettings | None:
     when the file has none.  Non-finite, negative or wrongly sized entries raise
     :class:`ModelParamsError` naming the key."""
     path = Path(path) if path is not None else DEFAULT_PARAMS_PATH
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ModelParamsError(f"{path}: cannot read model parameters ({exc.strerror or exc})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ModelParamsError(f"{path}: not valid TOML ({exc})") from None
+    data = _read_toml(path)
     ukf = data.get("ukf")
     if ukf is None:
         return None
