@@ -143,7 +143,7 @@ class ActiveModelController:
         r_dot_d = c.rate_k_per_s * (r_d - nav.r_radps) + self._rd_dot(r_d, dt_s)
         w_sin = (r_dot_d - f[2] - dnu[2]) / self._b_r
         dnu_u_raw = self.raw_delta_nu[0] if c.compensate_model_error else 0.0
-        w_cos = self.speed_law.thrust_demand(nav, target.speed_mps, dnu_u_raw, dt_s)
+        w_cos = self.speed_law.thrust_demand(nav, target.speed_mps, dnu_u_raw, dt_s, float(f[0]))
         delta = math.atan2(w_sin, w_cos)
         if abs(delta) > c.nozzle_max_rad:
             # Nozzle limit: a water jet only turns while it pushes, so the yaw row has priority

@@ -142,15 +142,19 @@ class AmSpeedLaw:
         a = a_r + c.k_per_s * (u_r - nav.u_mps)
         return min(c.accel_max_mps2, max(-c.decel_max_mps2, a))
 
-    def thrust_demand(self, nav: NavState, speed_mps: float, delta_nu_u_mps2: float, dt_s: float) -> float:
+    def thrust_demand(self, nav: NavState, speed_mps: float, delta_nu_u_mps2: float, dt_s: float,
+                      f_u_mps2: float | None = None) -> float:
         """Surge thrust demand ``T cos delta`` from the inverted surge row (>= min_thrust).
 
         ``delta_nu_u_mps2`` is the latest raw UKF model-error estimate of the surge row (0 when
-        compensation is off); the law filters it itself."""
+        compensation is off); the law filters it itself.  ``f_u_mps2``: ``[A(nu) nu]_u`` if the
+        caller has already evaluated it this period (computed here otherwise)."""
         if not math.isfinite(speed_mps):  # bad command: hold the reference, never raise
             speed_mps = self._ref_mps if self._ref_mps is not None else nav.u_mps
-        nu = np.array([nav.u_mps, nav.v_mps, nav.r_radps])
-        f_u = float((self.model.a_of_nu(nu) @ nu)[0])
+        if f_u_mps2 is None:
+            nu = np.array([nav.u_mps, nav.v_mps, nav.r_radps])
+            f_u_mps2 = float((self.model.a_of_nu(nu) @ nu)[0])
+        f_u = f_u_mps2
         raw = delta_nu_u_mps2 if math.isfinite(delta_nu_u_mps2) else self._dnu.value
         dnu_u = self._dnu.step(raw - self.engine_lag_error(nav.u_mps), dt_s)
         u_dot_d = self.accel_demand(nav, speed_mps, dt_s)

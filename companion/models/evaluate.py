@@ -22,6 +22,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 from companion.estimation.ukf import UKFSettings, make_ukf
 from companion.models.base import DOF_NAMES, FloatArray, LinearInParamsModel, error_index
@@ -59,19 +60,33 @@ def run_ukf(model: LinearInParamsModel, rec: Record, settings: UKFSettings | Non
     return xs[:, :3], xs[:, 3:]
 
 
+def free_run(model: LinearInParamsModel, rec: Record) -> FloatArray:
+    """The model simulated over the whole record from the first smoothed measured state."""
+    nu_s, _ = smooth(rec)
+    return model.simulate(rec.t_s, nu_s[0], rec.throttle, rec.delta_rad)
+
+
+def active_ahead(model: LinearInParamsModel, rec: Record, horizon_s: float = 1.0,
+                 settings: UKFSettings | None = None) -> tuple[NDArray[np.intp], FloatArray, FloatArray]:
+    """``(index, active, delta_nu)``: the h-ahead prediction from the UKF-filtered state with the
+    UKF's delta_nu held (the active model, Eq. 5), and the delta_nu series."""
+    nu_f, dnu = run_ukf(model, rec, settings)
+    idx, active = model.predict_ahead(rec.t_s, nu_f, rec.throttle, rec.delta_rad, horizon_s, delta_nu=dnu)
+    return idx, active, dnu
+
+
 def evaluate(model: LinearInParamsModel, rec: Record, horizon_s: float = 1.0,
              settings: UKFSettings | None = None) -> Evaluation:
     """J per DOF and prediction mode of ``model`` on ``rec``."""
-    nu_s, _ = smooth(rec)
-    free = model.simulate(rec.t_s, nu_s[0], rec.throttle, rec.delta_rad)
+    free = free_run(model, rec)
     nu_f, dnu = run_ukf(model, rec, settings)
     idx, ahead = model.predict_ahead(rec.t_s, nu_f, rec.throttle, rec.delta_rad, horizon_s)
     _, active = model.predict_ahead(rec.t_s, nu_f, rec.throttle, rec.delta_rad, horizon_s, delta_nu=dnu)
     meas = reference(rec)
     j = {
-        "free_run": _j(free, meas),
-        "ahead": _j(ahead, meas[idx]),
-        "ahead_active": _j(active, meas[idx]),
+        "free_run": j_of(free, meas),
+        "ahead": j_of(ahead, meas[idx]),
+        "ahead_active": j_of(active, meas[idx]),
     }
     return Evaluation(model.name, j, free, idx.astype(float), ahead, active, nu_f, dnu)
 
@@ -85,7 +100,8 @@ def reference_name(rec: Record) -> str:
     return "truth (*_true columns)" if rec.nu_true is not None else "smoothed measurements"
 
 
-def _j(est: FloatArray, meas: FloatArray) -> dict[str, float]:
+def j_of(est: FloatArray, meas: FloatArray) -> dict[str, float]:
+    """J of Eq. 12 per DOF name."""
     return {dof: float(x) for dof, x in zip(DOF_NAMES, error_index(est, meas), strict=True)}
 
 

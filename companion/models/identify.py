@@ -226,13 +226,12 @@ def fit_qlpv(records: Sequence[Record], window_s: float = 0.5, name: str = "qLPV
     return fit
 
 
-def _free_run_cost(model: LinearInParamsModel, records: Sequence[Record], window_s: float
+def _free_run_cost(model: LinearInParamsModel, records: Sequence[Record], smoothed: Sequence[FloatArray]
                    ) -> tuple[float, list[FloatArray]]:
-    """Normalised free-run error of ``model`` on the (smoothed) training records, and the
-    simulated states of every record."""
+    """Normalised free-run error of ``model`` on the training records (``smoothed``: their
+    smoothed states), and the simulated states of every record."""
     cost, sims = 0.0, []
-    for rec in records:
-        nu_s, _ = smooth(rec, window_s)
+    for rec, nu_s in zip(records, smoothed, strict=True):
         sim = model.simulate(rec.t_s, nu_s[0], rec.throttle, rec.delta_rad)
         sims.append(sim)
         scale = np.sqrt(np.mean(nu_s**2, axis=0)) + 1e-3
@@ -274,36 +273,39 @@ def refine_instrumental(fit: FitResult, records: Sequence[Record], window_s: flo
     model = fit.model
     proto = model.with_theta(np.zeros_like(model.theta))
     phi, y, _, win = _regression(proto, records, window_s)
-    active = (model.theta != 0) & (model.mask_array() != 0)
-    best_cost, sims = _free_run_cost(model, records, window_s)
+    mask = model.mask_array() != 0
+    active = (model.theta != 0) & mask
+    smoothed = [smooth(rec, window_s)[0] for rec in records]
+    best_cost, sims = _free_run_cost(model, records, smoothed)
     best, best_std, best_cov = model, fit.std, fit.cov
+    rows = []  # per DOF: estimated columns, their bounds, their places in the row's covariance
+    for j in range(3):
+        cols = np.flatnonzero(active[j])
+        lo_hi = np.array([(bounds or {}).get((j, model.FEATURES[k]), (-np.inf, np.inf)) for k in cols],
+                         dtype=float).reshape(-1, 2)
+        row_cols = list(np.flatnonzero(mask[j]))
+        rows.append((cols, lo_hi[:, 0], lo_hi[:, 1], [row_cols.index(k) for k in cols], len(row_cols)))
+    edges = [_window_samples(rec, window_s) // 2 for rec in records]
     accepted = 0
     for _ in range(iterations):
         z = np.concatenate([model.features(sim[e:len(rec) - e], rec.throttle[e:len(rec) - e],
                                            rec.delta_rad[e:len(rec) - e])
-                            for rec, sim in zip(records, sims, strict=True)
-                            for e in (_window_samples(rec, window_s) // 2,)])
+                            for rec, sim, e in zip(records, sims, edges, strict=True)])
         theta = np.zeros_like(model.theta)
         std = np.zeros_like(model.theta)
         covs = []
         try:
-            for j in range(3):
-                cols = np.flatnonzero(active[j])
-                names = [model.FEATURES[k] for k in cols]
-                lb = np.array([(bounds or {}).get((j, n), (-np.inf, np.inf))[0] for n in names])
-                ub = np.array([(bounds or {}).get((j, n), (-np.inf, np.inf))[1] for n in names])
+            for j, (cols, lb, ub, pos, n_row) in enumerate(rows):
                 th, cov = _iv_row(phi[:, cols], z[:, cols], y[:, j], lb, ub, float(win))
                 theta[j, cols] = th
                 std[j, cols] = np.sqrt(np.abs(np.diag(cov)))
-                full = np.zeros((int(model.mask_array()[j].sum()),) * 2)
-                row_cols = list(np.flatnonzero(model.mask_array()[j]))
-                pos = [row_cols.index(k) for k in cols]
+                full = np.zeros((n_row, n_row))
                 full[np.ix_(pos, pos)] = cov
                 covs.append(full)
         except np.linalg.LinAlgError:
             break
         candidate = model.with_theta(theta)
-        cost, cand_sims = _free_run_cost(candidate, records, window_s)
+        cost, cand_sims = _free_run_cost(candidate, records, smoothed)
         if not np.isfinite(cost) or cost > best_cost:
             break
         best, best_cost, best_std, best_cov, sims, model = candidate, cost, std, covs, cand_sims, candidate
@@ -312,8 +314,7 @@ def refine_instrumental(fit: FitResult, records: Sequence[Record], window_s: flo
     if accepted == 0:
         warnings.append(f"{model.name}: instrumental variables did not improve the free-run fit of the "
                         "training records; least-squares estimate kept")
-    result = FitResult(best, "instrumental variables", best_std, fit.cond, warnings, best_cov)
-    return result
+    return FitResult(best, "instrumental variables", best_std, fit.cond, warnings, best_cov)
 
 
 def refine_output_error(fit: FitResult, records: Sequence[Record], rate_hz: float = 10.0,

@@ -62,9 +62,11 @@ def reference_state(rec: Record) -> tuple[FloatArray, str]:
     return smooth(rec)[0], "smoothed measurements (estimate)"
 
 
-def model_error_series(model: LinearInParamsModel, rec: Record) -> FloatArray:
-    """e(t) = d/dt nu_ref - f(nu_ref, u) (Eq. 5's delta_nu as the data show it), (N, 3)."""
-    nu, _ = reference_state(rec)
+def model_error_series(model: LinearInParamsModel, rec: Record, nu: FloatArray | None = None) -> FloatArray:
+    """e(t) = d/dt nu - f(nu, u) (Eq. 5's delta_nu as the data show it), (N, 3), on ``nu``
+    (default: :func:`reference_state`)."""
+    if nu is None:
+        nu, _ = reference_state(rec)
     nu_dot = np.gradient(nu, rec.t_s, axis=0)
     return np.asarray(nu_dot - model.derivative(nu, rec.throttle, rec.delta_rad))
 
@@ -84,7 +86,7 @@ def autocorrelation(x: FloatArray, lag: int) -> FloatArray:
 def held_error_bound(model: LinearInParamsModel, rec: Record, horizon_s: float = 1.0) -> HeldErrorBound:
     """The oracle bound of the module docstring for ``model`` on ``rec``."""
     nu, ref_name = reference_state(rec)
-    err = model_error_series(model, rec)
+    err = model_error_series(model, rec, nu)
     dt = float(np.median(np.diff(rec.t_s)))
     lag = max(1, round(horizon_s / dt))
     rho = autocorrelation(err, lag)

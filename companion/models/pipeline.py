@@ -20,7 +20,15 @@ import numpy as np
 from companion.estimation.ukf import UKFSettings
 from companion.models.base import DOF_NAMES, LinearInParamsModel
 from companion.models.baselines import LinearizedModel, NomotoSideslipModel
-from companion.models.evaluate import MODES, Evaluation, evaluate, j_table, reference_name
+from companion.models.evaluate import (
+    MODES,
+    Evaluation,
+    active_ahead,
+    j_of,
+    j_table,
+    reference,
+    reference_name,
+)
 from companion.models.identify import (
     QLPV_DISSIPATIVE,
     FitResult,
@@ -102,7 +110,8 @@ def validate(models: Mapping[str, LinearInParamsModel], rec: Record, *, horizon_
     bound = held_error_bound(qlpv, rec, horizon_s) if qlpv is not None else None
     active_id = None
     if qlpv is not None and identified_settings is not None:
-        active_id = evaluate(qlpv, rec, horizon_s, identified_settings).j["ahead_active"]
+        idx, active, _ = active_ahead(qlpv, rec, horizon_s, identified_settings)
+        active_id = j_of(active, reference(rec)[idx])
     return Validation(rec, table, evals, reference_name(rec), settings, bound, identified_settings, active_id)
 
 
