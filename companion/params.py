@@ -126,6 +126,11 @@ class ParamStore:
     def get_int(self, name: str) -> int:
         return int(self.get(name))
 
+    def get_or(self, name: str, fallback: float) -> float:
+        """The value of ``name``, or ``fallback`` if this table has no such parameter (a store
+        built for one part in a unit test)."""
+        return self._values[name] if name in self._defs else fallback
+
     # -- change -------------------------------------------------------------------------
     def set(self, name: str, value: object, *, persist: bool = True) -> float:
         """Validate and store a value; listeners run and the store is saved on change."""

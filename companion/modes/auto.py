@@ -34,6 +34,7 @@ from companion.modes.navigation import (
 
 if TYPE_CHECKING:
     from companion.mission.items import MissionItem
+    from companion.payloads.registry import Payloads
     from companion.vehicle import Vehicle
 
 log = logging.getLogger(__name__)
@@ -269,8 +270,8 @@ class AutoMode(NavMode):
             self.phase = "loiter"
             return False
         if c == CMD_NAV_SAMPLE_HERE:
-            radius = item.param2 if item.param2 > 0 else (
-                params.get("USV_SMPL_CIRC_M") if "USV_SMPL_CIRC_M" in params else params.get("USV_TURN_RAD"))
+            default_radius_m = params.get_or("USV_SMPL_CIRC_M", params.get("USV_TURN_RAD"))
+            radius = item.param2 if item.param2 > 0 else default_radius_m
             self.task, self.phase = CircleTask(params, point, radius), "sample"
             return False
         if c == CMD_NAV_LAUNCH_AT:
@@ -288,15 +289,10 @@ class AutoMode(NavMode):
         if self._job is None:
             if task.on_circle_since_s is None:
                 return False
-            try:
-                from companion.payloads.registry import payloads_of
-
-                payloads = payloads_of(vehicle.ctx)
-            except LookupError:
-                vehicle.status("AUTO: no water sampler; sample item skipped", 4)
+            payloads = _payloads(vehicle, "no water sampler; sample item skipped")
+            if payloads is None:
                 return True
-            params = vehicle.ctx.params
-            accept = params.get("USV_SMPL_ACC_M") if "USV_SMPL_ACC_M" in params else task.radius_m + 0.5
+            accept = vehicle.ctx.params.get_or("USV_SMPL_ACC_M", task.radius_m + 0.5)
             job = payloads.start_sample(
                 bottle=int(item.param1) if math.isfinite(item.param1) else 0,
                 fill_s=item.param3 if item.param3 > 0 else None,
@@ -319,8 +315,7 @@ class AutoMode(NavMode):
         if self._fire is not None:
             return self._fire.done()
         err = abs(wrap_pi(self._launch_bearing - nav.heading_rad))
-        hold = item.param2 if item.param2 > 0 else (
-            vehicle.ctx.params.get("USV_LNCH_HOLD_S") if "USV_LNCH_HOLD_S" in vehicle.ctx.params else 3.0)
+        hold = item.param2 if item.param2 > 0 else vehicle.ctx.params.get_or("USV_LNCH_HOLD_S", 3.0)
         station = self._launch_steer.inner if self._launch_steer is not None else None
         if station is not None and station.distance_m > LAUNCH_MAX_DIST_M:
             self._since_s = nav.t_s  # carried off the point while turning: station-keep back to it
@@ -333,12 +328,8 @@ class AutoMode(NavMode):
             return False
         if nav.t_s - self._since_s < hold:
             return False
-        try:
-            from companion.payloads.registry import payloads_of
-
-            payloads = payloads_of(vehicle.ctx)
-        except LookupError:
-            vehicle.status("AUTO: no rope launcher; launch item skipped", 4)
+        payloads = _payloads(vehicle, "no rope launcher; launch item skipped")
+        if payloads is None:
             return True
         self._fire = asyncio.get_running_loop().create_task(payloads.mission_fire(item.seq))
         return False
@@ -359,3 +350,14 @@ class _HeadingTask:
         self.inner.step(nav, dt_s)
         self.distance_m = self.inner.distance_m
         return ControlTarget(self.heading_rad, self.speed_mps, is_heading=True)
+
+
+def _payloads(vehicle: Vehicle, missing: str) -> Payloads | None:
+    """The vehicle's payload registry, or None after telling the operator ``AUTO: <missing>``."""
+    from companion.payloads.registry import payloads_of
+
+    try:
+        return payloads_of(vehicle.ctx)
+    except LookupError:
+        vehicle.status(f"AUTO: {missing}", 4)
+        return None

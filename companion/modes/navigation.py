@@ -34,7 +34,7 @@ FALLBACK_VALUES = {"WP_SPEED": 5.0, "CRUISE_SPEED": 5.0, "WP_RADIUS": 2.0, "LOIT
 
 
 def param(params: ParamStore, name: str) -> float:
-    return params.get(name) if name in params else FALLBACK_VALUES[name]
+    return params.get_or(name, FALLBACK_VALUES[name])
 
 
 def wp_speed_mps(params: ParamStore, override: float | None = None) -> float:
