@@ -19,7 +19,7 @@ from __future__ import annotations
 import time
 from typing import Any
 
-from benchmarks.control_ident import plant_model
+from benchmarks.control_ident import shipped_model
 from benchmarks.control_scenarios import SCENARIOS, speed_wave_floor
 from companion.control.params import CTRL_ACTIVE_MODEL, CTRL_PID
 from companion.models.qlpv import QLPVModel
@@ -67,7 +67,7 @@ def _table(model: QLPVModel, seeds: tuple[int, ...], quick: bool,
 
 def run(quick: bool) -> dict[str, Any]:
     t0 = time.perf_counter()
-    model = plant_model()
+    model = shipped_model()
     seeds = (1,) if quick else (1, 2, 3)
     out: dict[str, Any] = {"seeds": list(seeds), "quick": quick}
     table, all_beaten, all_met_am = _table(model, seeds, quick, tuple(SCENARIOS))

@@ -25,6 +25,17 @@ behave as designed despite mismatch, wind and waves: the UKF acts as a disturban
 no integrator is needed.  When the nozzle limit is reached the yaw row has priority: the thrust
 is raised until full nozzle gives the requested yaw moment (a water jet has no steering without
 thrust), so the boat does not lose its turn when it is also asked to slow down.
+
+Near standstill (commanded speed below ``turn_boost_speed_mps``: station keeping, turning on the
+spot, circling a point) that extra thrust is scaled by how much of a turn guidance asks for (the
+larger of heading error / ``turn_boost_full_error_rad`` and r_d / r_max) and capped at
+``turn_throttle_max`` unless guidance plans the turn (its feed-forward rate).  With the identified
+yaw row the idle jet has almost no yaw authority (b_r T sin(delta_max) ~ 0.04 rad/s^2 at the
+throttle that holds a 1.2 m/s current), so an uncapped, unscaled boost revved the engine over
+every small heading wobble and pushed the boat off its station: in a 1.2 m/s current GUIDED
+settled 7 m off its point (0.4-0.8 m with the scaling), LOITER in 1.5 m/s drew 5 m circles
+without the cap (0.5-0.8 m with it), and circling a point at the turning radius needs the
+planned-turn exemption (radial error 1.27 m capped, 0.44 m exempt).
 """
 
 from __future__ import annotations
@@ -53,8 +64,10 @@ class ActiveModelConfig:
     heading: HeadingLoopConfig = field(default_factory=HeadingLoopConfig)
     rate_k_per_s: float = 6.0
     """k_r: bandwidth of the turn-rate error dynamics (1/s)."""
-    speed_k_per_s: float = 0.8
+    speed_k_per_s: float = 0.5
     """k_u: bandwidth of the speed error dynamics (1/s)."""
+    brake_k_per_s: float = 1.0
+    """k_u for a speed excess beyond the speed law's braking dead band (1/s)."""
     accel_max_mps2: float = 1.5
     decel_max_mps2: float = 1.0
     rate_ff_tau_s: float = 0.2
@@ -70,6 +83,15 @@ class ActiveModelConfig:
     nozzle_max_rad: float = math.radians(60.0)
     min_thrust: float = 0.0025
     """Smallest normalised thrust the law asks for, so the nozzle keeps some authority."""
+    turn_throttle_max: float = 0.4
+    """Largest throttle the yaw row may ask for when the commanded speed is below
+    ``turn_boost_speed_mps`` (unless the speed law itself asks for more)."""
+    turn_boost_speed_mps: float = 2.0
+    turn_boost_full_error_rad: float = math.radians(90.0)
+    """Heading error at which that yaw-row throttle may reach ``turn_throttle_max``; below it the
+    allowance shrinks in proportion.  Holding a heading at idle then does not rev the engine over
+    every small yaw error (which pushed the boat off its station): a real turn still gets the
+    thrust it needs, a wobble does not."""
 
 
 def throttle_for_thrust(model: QLPVModel, thrust: float, u_mps: float) -> float:
@@ -97,8 +119,9 @@ class ActiveModelController:
         self.last_delta_nu = (0.0, 0.0, 0.0)
         self.raw_delta_nu = (0.0, 0.0, 0.0)
         self.speed_law = AmSpeedLaw(model, AmSpeedConfig(
-            k_per_s=self.cfg.speed_k_per_s, accel_max_mps2=self.cfg.accel_max_mps2,
-            decel_max_mps2=self.cfg.decel_max_mps2, min_thrust=self.cfg.min_thrust))
+            k_per_s=self.cfg.speed_k_per_s, brake_k_per_s=self.cfg.brake_k_per_s,
+            accel_max_mps2=self.cfg.accel_max_mps2, decel_max_mps2=self.cfg.decel_max_mps2,
+            min_thrust=self.cfg.min_thrust))
         self._dnu_lp = [LowPass(self.cfg.model_error_tau_s, 0.0) for _ in range(3)]
         self._last_rd: float | None = None
         self._rd_dot_lp = LowPass(self.cfg.rate_ff_tau_s, 0.0)
@@ -131,6 +154,20 @@ class ActiveModelController:
         rd_dot = self._rd_dot_lp.step(raw, dt_s)
         return max(-c.rate_ff_max_radps2, min(c.rate_ff_max_radps2, rd_dot))
 
+    def _turn_intent(self, e_psi: float, r_d: float) -> float:
+        """How much of a turn guidance asks for, 0-1: the larger of the heading error over
+        ``turn_boost_full_error_rad`` and the desired turn rate over the largest turn rate."""
+        c = self.cfg
+        return min(1.0, max(abs(e_psi) / c.turn_boost_full_error_rad,
+                            abs(r_d) / c.heading.turn_rate_max_radps))
+
+    def _turn_throttle_cap(self, planned_rate_radps: float) -> float:
+        """Throttle cap of the yaw-row boost: ``turn_throttle_max`` for turning toward a heading,
+        rising to full throttle with the guidance's planned turn rate (circling a point)."""
+        c = self.cfg
+        planned = min(1.0, abs(planned_rate_radps) / c.heading.turn_rate_max_radps)
+        return c.turn_throttle_max + (1.0 - c.turn_throttle_max) * planned
+
     def update(self, nav: NavState, target: ControlTarget, dt_s: float, sat: Saturation) -> ControlOutput:
         c = self.cfg
         self.crab.update(nav, dt_s)
@@ -150,9 +187,13 @@ class ActiveModelController:
             # (the thrust that gives the requested yaw moment at full nozzle), the surge row gets
             # what that thrust leaves (never less than it asked for).
             delta = math.copysign(c.nozzle_max_rad, delta)
-            thrust = max(w_cos / math.cos(delta), abs(w_sin) / math.sin(c.nozzle_max_rad))
+            surge_only = max(w_cos, 0.0) / math.cos(delta)
+            thrust = max(surge_only, abs(w_sin) / math.sin(c.nozzle_max_rad))
+            if target.speed_mps < c.turn_boost_speed_mps:
+                thrust = surge_only + self._turn_intent(e_psi, r_d) * (thrust - surge_only)
+                thrust = min(thrust, max(surge_only, float(self.model.thrust(
+                    self._turn_throttle_cap(target.course_rate_radps), nav.u_mps))))
         else:
             thrust = math.hypot(w_sin, w_cos)
         throttle = throttle_for_thrust(self.model, thrust, nav.u_mps)
-        self.speed_law.note_command(min(1.0, throttle), delta, dt_s)
         return ControlOutput(nozzle_rad=delta, throttle=min(1.0, throttle), heading_cmd_rad=psi_d)

@@ -24,12 +24,17 @@ cannot be cancelled: an oracle that knows it exactly and ahead and inverts the e
 removes 0-9 % of the surge RMS within those limits (``oracle_rms_mps`` of
 :func:`benchmarks.control_scenarios.speed_wave_floor`), and the UKF's delta_nu_u lags it by
 about 0.3 s, so feeding it back at wave frequency only adds motion.  The law therefore passes
-delta_nu_u through a second-order Butterworth low-pass at ``dnu_cutoff_radps`` (3 rad/s: -6 dB
-at 4 rad/s, -16 dB at the 7.5 rad/s peak, -21 dB at 10 rad/s; 8 degrees of lag at 0.3 rad/s
-gusts where the shared first-order 1 s filter lags 17 degrees), which rejects
-gusts, drift and mismatch quickly and leaves the wave motion alone.  Measured: speed-step
-steady RMS 0.0490 m/s worst of seeds 1-3 (the shared first-order 1 s filter: 0.0513; PID
-0.0509); 5 m/s into an 8 m/s gusty wind, 0.007-0.009 m/s (PID 0.009-0.013).
+delta_nu_u through a second-order Butterworth low-pass at ``dnu_cutoff_radps`` (5 rad/s: -1.5 dB
+at 4 rad/s, -8 dB at the 7.5 rad/s peak, -12 dB at 10 rad/s; 5 degrees of lag at 0.3 rad/s
+gusts where the shared first-order 1 s filter lags 17 degrees), which rejects gusts, drift and
+mismatch quickly and damps the wave motion.  A 3 rad/s cut-off damps the waves more but, with
+the shipped model (identified from richer logs), lets gusts through: 0.010-0.011 m/s against
+PID's 0.009-0.011.  Measured with 5 rad/s: speed-step steady RMS 0.0475 m/s worst of seeds 1-3
+(PID 0.0509); 5 m/s into an 8 m/s gusty wind, 0.007-0.009 m/s (PID 0.009-0.011).
+
+Braking.  A speed excess beyond ``brake_deadband_mps`` is corrected with the firmer
+``brake_k_per_s``, so the path follower's slow-down before a corner or the last waypoint is
+tracked closely while the wave ripple about the command still sees ``k_u`` alone.
 """
 
 from __future__ import annotations
@@ -49,33 +54,29 @@ STALE_S = 0.5
 
 @dataclass(frozen=True, slots=True)
 class AmSpeedConfig:
-    k_per_s: float = 0.8
+    k_per_s: float = 0.5
     """k_u: bandwidth of the speed error dynamics (1/s)."""
+    brake_k_per_s: float = 1.0
+    """k_u for the part of a speed excess beyond ``brake_deadband_mps`` (1/s): braking for a
+    corner or the last waypoint is firmer, the wave ripple about the command (centimetres per
+    second) still sees ``k_u`` alone.  With ``k_u`` alone the boat follows the path follower's
+    0.4 m/s^2 braking profile 0.8 m/s fast (``a / k_u``; 0.55 m/s with this) and reached a
+    station point too fast to stop there (RTL and GUIDED in a 1.2 m/s current looped round it)."""
+    brake_deadband_mps: float = 0.3
     accel_max_mps2: float = 1.5
     decel_max_mps2: float = 1.0
     ref_radps: float = 0.0
     """Natural frequency of the critically damped reference model on the speed command
     (0: no reference model, the error law acts on the raw command)."""
-    dnu_cutoff_radps: float = 3.0
+    dnu_cutoff_radps: float = 5.0
     """Cut-off of the second-order Butterworth low-pass on delta_nu_u (rad/s)."""
     min_thrust: float = 0.0025
     """Smallest normalised thrust the law asks for, so the nozzle keeps some authority."""
-    engine_tau_s: float = 0.0
-    """Time constant of the engine's response to the throttle (s; the simulated engine's is
-    0.4) for the engine-lag correction of delta_nu_u; 0: no correction.  Off by default:
-    measured with 0.4, the calm-water 2 -> 6 m/s step overshoot goes 0.41 -> 0.00 % and the
-    3 m/s-wind steady RMS 0.0032 -> 0.0017 m/s, the wave figures stay ahead of PID, but the
-    square's whole-run max goes over its 2 m target at corners (seed 1: 1.30 -> 2.57 m with the
-    guidance of this commit; before it, seed 5: 1.56 -> 2.22 m): the boat keeps more speed
-    into the turns when the lag no longer shows up as surge model error."""
-    throttle_rate_per_s: float = 1.0
-    """Throttle slew rate of the actuator mapping (USV_THR_RATE), for the same correction."""
 
     def __post_init__(self) -> None:
-        vals = (self.k_per_s, self.accel_max_mps2, self.decel_max_mps2, self.ref_radps, self.dnu_cutoff_radps,
-                self.engine_tau_s, self.throttle_rate_per_s)
-        if (not all(math.isfinite(v) and v >= 0.0 for v in vals) or self.dnu_cutoff_radps == 0.0
-                or self.throttle_rate_per_s == 0.0):
+        vals = (self.k_per_s, self.brake_k_per_s, self.brake_deadband_mps, self.accel_max_mps2,
+                self.decel_max_mps2, self.ref_radps, self.dnu_cutoff_radps)
+        if not all(math.isfinite(v) and v >= 0.0 for v in vals) or self.dnu_cutoff_radps == 0.0:
             raise ValueError(f"invalid active-model speed settings {self}")
 
 
@@ -108,9 +109,6 @@ class AmSpeedLaw:
         self._ref_mps: float | None = None
         self._ref_accel_mps2 = 0.0
         self._last_t_s: float | None = None
-        self._thr_applied: float | None = None
-        self._thr_engine = 0.0
-        self._cos_delta = 1.0
         self.last_accel_mps2 = 0.0
         """Last desired surge acceleration u_dot_d (m/s^2)."""
 
@@ -139,7 +137,8 @@ class AmSpeedLaw:
             a_r = min(c.accel_max_mps2, max(-c.decel_max_mps2, a_r))
             u_r = self._ref_mps + dt_s * a_r
         self._ref_mps, self._ref_accel_mps2 = u_r, a_r
-        a = a_r + c.k_per_s * (u_r - nav.u_mps)
+        e = u_r - nav.u_mps
+        a = a_r + c.k_per_s * e + (c.brake_k_per_s - c.k_per_s) * min(0.0, e + c.brake_deadband_mps)
         return min(c.accel_max_mps2, max(-c.decel_max_mps2, a))
 
     def thrust_demand(self, nav: NavState, speed_mps: float, delta_nu_u_mps2: float, dt_s: float,
@@ -156,36 +155,7 @@ class AmSpeedLaw:
             f_u_mps2 = float((self.model.a_of_nu(nu) @ nu)[0])
         f_u = f_u_mps2
         raw = delta_nu_u_mps2 if math.isfinite(delta_nu_u_mps2) else self._dnu.value
-        dnu_u = self._dnu.step(raw - self.engine_lag_error(nav.u_mps), dt_s)
+        dnu_u = self._dnu.step(raw, dt_s)
         u_dot_d = self.accel_demand(nav, speed_mps, dt_s)
         self.last_accel_mps2 = u_dot_d
         return max(self.cfg.min_thrust, (u_dot_d - f_u - dnu_u) / self._b_u)
-
-    def engine_lag_error(self, u_mps: float) -> float:
-        """What the engine lag puts into the UKF's delta_nu_u (m/s^2).
-
-        The UKF predicts with the throttle sent, the jet pushes with the engine's lagged response,
-        so during a throttle change delta_nu_u holds ``b_u cos(delta) (T(thr_engine) - T(thr_sent))``
-        besides the real disturbance; compensating that would feed the lag back (a slow, lightly
-        damped speed oscillation after each step).  It is removed before filtering."""
-        if self._thr_applied is None or self.cfg.engine_tau_s <= 0.0:
-            return 0.0
-        m = self.model
-        gap = float(m.thrust(self._thr_engine, u_mps)) - float(m.thrust(self._thr_applied, u_mps))
-        return self._b_u * self._cos_delta * gap
-
-    def note_command(self, throttle: float, nozzle_rad: float, dt_s: float) -> None:
-        """Tell the law the throttle and nozzle angle sent this period (after its demand was
-        turned into them); it tracks the slew-limited throttle and the engine's lagged response."""
-        if not (math.isfinite(throttle) and math.isfinite(nozzle_rad)):
-            return
-        c = self.cfg
-        thr = min(1.0, max(0.0, throttle))
-        if self._thr_applied is None:
-            self._thr_applied = self._thr_engine = thr
-        step = c.throttle_rate_per_s * dt_s
-        self._thr_applied += max(-step, min(step, thr - self._thr_applied))
-        if c.engine_tau_s > 0.0:
-            lag = 1.0 - math.exp(-dt_s / c.engine_tau_s)
-            self._thr_engine += (self._thr_applied - self._thr_engine) * lag
-        self._cos_delta = math.cos(nozzle_rad)

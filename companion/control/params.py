@@ -41,7 +41,10 @@ PARAMS: tuple[ParamDef, ...] = (
              "PID: throttle that holds USV_CRUISE_SPD in calm water (feed-forward)."),
     ParamDef("USV_CRUISE_SPD", 5.0, 0.5, 10.0, "m/s", "PID: speed reached with USV_CRUISE_THR."),
     ParamDef("USV_AM_RATE_K", 6.0, 0.5, 20.0, "1/s", "Active model: turn-rate error bandwidth k_r."),
-    ParamDef("USV_AM_SPD_K", 0.8, 0.1, 5.0, "1/s", "Active model: speed error bandwidth k_u."),
+    ParamDef("USV_AM_SPD_K", 0.5, 0.1, 5.0, "1/s", "Active model: speed error bandwidth k_u."),
+    ParamDef("USV_AM_BRAKE_K", 1.0, 0.1, 5.0, "1/s",
+             "Active model: speed error bandwidth for the part of a speed excess above 0.3 m/s (braking "
+             "for a corner, a waypoint or a station point)."),
     ParamDef("USV_AM_ACC_MAX", 1.5, 0.1, 5.0, "m/s^2", "Active model: largest commanded acceleration."),
     ParamDef("USV_AM_DEC_MAX", 1.0, 0.1, 5.0, "m/s^2", "Active model: largest commanded deceleration."),
     ParamDef("USV_AM_DNU", 1, 0, 1, "",
@@ -87,7 +90,8 @@ def pid_config(p: ParamReader) -> PidConfig:
 
 def active_model_config(p: ParamReader) -> ActiveModelConfig:
     return ActiveModelConfig(heading=heading_config(p), rate_k_per_s=p.get("USV_AM_RATE_K"),
-                             speed_k_per_s=p.get("USV_AM_SPD_K"), accel_max_mps2=p.get("USV_AM_ACC_MAX"),
+                             speed_k_per_s=p.get("USV_AM_SPD_K"),
+                             brake_k_per_s=p.get("USV_AM_BRAKE_K"), accel_max_mps2=p.get("USV_AM_ACC_MAX"),
                              decel_max_mps2=p.get("USV_AM_DEC_MAX"),
                              compensate_model_error=bool(p.get("USV_AM_DNU")),
                              model_error_tau_s=p.get("USV_AM_DNU_TC"),

@@ -124,6 +124,30 @@ def test_active_model_keeps_steering_thrust_when_asked_to_turn_hard_and_slow_dow
     assert nu_dot[2] == pytest.approx(cfg.rate_k_per_s * r_d, rel=1e-6)
 
 
+def _low_speed_throttle(heading_err_deg: float, planned_rate_radps: float = 0.0) -> float:
+    """Throttle the active model asks for while nearly stopped (station keeping), with a yaw
+    disturbance the idle jet cannot hold at full nozzle."""
+    model = toy_model()
+    ctl = ActiveModelController(model, ActiveModelConfig(), delta_nu=lambda: (0.0, 0.0, 0.6))
+    target = ControlTarget(math.radians(heading_err_deg), 0.0, planned_rate_radps, is_heading=True)
+    out = ctl.update(nav_from(0.0, 0, 0, 0.0, np.zeros(3)), target, 0.01, NO_SATURATION)
+    assert abs(out.nozzle_rad) == pytest.approx(ctl.cfg.nozzle_max_rad)
+    return out.throttle
+
+
+def test_active_model_turns_at_low_speed_with_thrust_but_does_not_rev_for_a_wobble() -> None:
+    """Near standstill the yaw row adds thrust in proportion to how much of a turn guidance asks
+    for: none to speak of for a 2 degree wobble (revving the jet then pushed the boat off its
+    station), up to ``turn_throttle_max`` to turn round, and beyond that only
+    for a turn the guidance plans (circling a point at the turning radius)."""
+    cfg = ActiveModelConfig()
+    wobble, turn_round = _low_speed_throttle(2.0), _low_speed_throttle(150.0)
+    planned = _low_speed_throttle(2.0, planned_rate_radps=cfg.heading.turn_rate_max_radps)
+    assert wobble < 0.1
+    assert turn_round == pytest.approx(cfg.turn_throttle_max, abs=1e-6)
+    assert planned > 0.6
+
+
 def _closed_loop(ctl: object, model: QLPVModel, disturbance: np.ndarray, heading_cmd: float,
                  speed_cmd: float, duration_s: float) -> tuple[list[float], list[float]]:
     """Controller + actuator mapper on a qLPV plant with an additive disturbance (Eq. 5)."""
