@@ -64,12 +64,8 @@ class ActiveModelConfig:
     heading: HeadingLoopConfig = field(default_factory=HeadingLoopConfig)
     rate_k_per_s: float = 6.0
     """k_r: bandwidth of the turn-rate error dynamics (1/s)."""
-    speed_k_per_s: float = 0.5
-    """k_u: bandwidth of the speed error dynamics (1/s)."""
-    brake_k_per_s: float = 1.0
-    """k_u for a speed excess beyond the speed law's braking dead band (1/s)."""
-    accel_max_mps2: float = 1.5
-    decel_max_mps2: float = 1.0
+    speed: AmSpeedConfig = field(default_factory=AmSpeedConfig)
+    """The surge row's law (:mod:`companion.control.am_speed`)."""
     rate_ff_tau_s: float = 0.2
     """Command filter on the derivative of the desired turn rate, fed forward into the yaw
     acceleration demand (backstepping); 0 disables the feed-forward."""
@@ -81,8 +77,6 @@ class ActiveModelConfig:
     """Low-pass time constant on delta_nu: compensate wind, drift and model mismatch, but do not
     chase first-order wave forces (wave filtering, Fossen 2021 ch. 13)."""
     nozzle_max_rad: float = math.radians(60.0)
-    min_thrust: float = 0.0025
-    """Smallest normalised thrust the law asks for, so the nozzle keeps some authority."""
     turn_throttle_max: float = 0.4
     """Largest throttle the yaw row may ask for when the commanded speed is below
     ``turn_boost_speed_mps`` (unless the speed law itself asks for more)."""
@@ -118,10 +112,7 @@ class ActiveModelController:
             raise ValueError(f"model {model.name!r} has no surge/yaw control authority (B = {b.tolist()})")
         self.last_delta_nu = (0.0, 0.0, 0.0)
         self.raw_delta_nu = (0.0, 0.0, 0.0)
-        self.speed_law = AmSpeedLaw(model, AmSpeedConfig(
-            k_per_s=self.cfg.speed_k_per_s, brake_k_per_s=self.cfg.brake_k_per_s,
-            accel_max_mps2=self.cfg.accel_max_mps2, decel_max_mps2=self.cfg.decel_max_mps2,
-            min_thrust=self.cfg.min_thrust))
+        self.speed_law = AmSpeedLaw(model, self.cfg.speed)
         self._dnu_lp = [LowPass(self.cfg.model_error_tau_s, 0.0) for _ in range(3)]
         self._last_rd: float | None = None
         self._rd_dot_lp = LowPass(self.cfg.rate_ff_tau_s, 0.0)

@@ -11,6 +11,7 @@ from typing import Protocol
 
 from companion.control.active_model import ActiveModelConfig
 from companion.control.actuator import ActuatorLimits
+from companion.control.am_speed import AmSpeedConfig
 from companion.control.pid_family import HeadingLoopConfig, PidConfig
 from companion.params import ParamDef
 
@@ -90,9 +91,10 @@ def pid_config(p: ParamReader) -> PidConfig:
 
 def active_model_config(p: ParamReader) -> ActiveModelConfig:
     return ActiveModelConfig(heading=heading_config(p), rate_k_per_s=p.get("USV_AM_RATE_K"),
-                             speed_k_per_s=p.get("USV_AM_SPD_K"),
-                             brake_k_per_s=p.get("USV_AM_BRAKE_K"), accel_max_mps2=p.get("USV_AM_ACC_MAX"),
-                             decel_max_mps2=p.get("USV_AM_DEC_MAX"),
+                             speed=AmSpeedConfig(k_per_s=p.get("USV_AM_SPD_K"),
+                                                 brake_k_per_s=p.get("USV_AM_BRAKE_K"),
+                                                 accel_max_mps2=p.get("USV_AM_ACC_MAX"),
+                                                 decel_max_mps2=p.get("USV_AM_DEC_MAX")),
                              compensate_model_error=bool(p.get("USV_AM_DNU")),
                              model_error_tau_s=p.get("USV_AM_DNU_TC"),
                              nozzle_max_rad=math.radians(p.get("USV_NOZ_MAX")))

@@ -105,7 +105,7 @@ def test_active_model_inversion_achieves_the_designed_accelerations() -> None:
     assert abs(out.nozzle_rad) < cfg.nozzle_max_rad  # not saturated: the law is exact
     r_d = desired_turn_rate(cfg.heading, math.radians(4.0), 0.0, 2.0)
     assert nu_dot[2] == pytest.approx(cfg.rate_k_per_s * (r_d - 0.05), rel=1e-6)
-    assert nu_dot[0] == pytest.approx(cfg.speed_k_per_s * 0.5, rel=1e-6)
+    assert nu_dot[0] == pytest.approx(cfg.speed.k_per_s * 0.5, rel=1e-6)
 
 
 def test_active_model_keeps_steering_thrust_when_asked_to_turn_hard_and_slow_down() -> None:
