@@ -57,7 +57,9 @@ class LosType(enum.IntEnum):
 
 @dataclass(frozen=True, slots=True)
 class LosGains:
-    """Tuning of the LOS laws (names as in Fossen's handbook)."""
+    """Tuning of the LOS laws (names as in Fossen's handbook).  The defaults are a plain
+    constant look-ahead for unit use; the vehicle's tuning is in the ``USV_LOS_*`` parameters
+    (:func:`companion.guidance.params.los_gains`)."""
 
     lookahead_m: float = 8.0
     """Delta (Delta_max): look-ahead distance on the line; smaller converges faster but oscillates."""
