@@ -79,13 +79,15 @@ class ActiveModelConfig:
     nozzle_max_rad: float = math.radians(60.0)
     turn_throttle_max: float = 0.4
     """Largest throttle the yaw row may ask for when the commanded speed is below
-    ``turn_boost_speed_mps`` (unless the speed law itself asks for more)."""
+    ``turn_boost_speed_mps`` (unless the speed law itself asks for more); it rises to full
+    throttle with the turn rate guidance plans (``course_rate_radps``: circling a point)."""
     turn_boost_speed_mps: float = 2.0
     turn_boost_full_error_rad: float = math.radians(90.0)
-    """Heading error at which that yaw-row throttle may reach ``turn_throttle_max``; below it the
-    allowance shrinks in proportion.  Holding a heading at idle then does not rev the engine over
-    every small yaw error (which pushed the boat off its station): a real turn still gets the
-    thrust it needs, a wobble does not."""
+    """Below ``turn_boost_speed_mps`` the yaw row's extra thrust is scaled by the turn asked
+    for: full at this heading error (or at the largest desired turn rate), in proportion below.
+    Holding a heading at idle then does not rev the engine over every small yaw error (which
+    pushed the boat off its station): a real turn still gets the thrust it needs, a wobble does
+    not."""
 
 
 def throttle_for_thrust(model: QLPVModel, thrust: float, u_mps: float) -> float:
