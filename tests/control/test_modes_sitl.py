@@ -110,7 +110,7 @@ async def test_guided_goes_to_the_target_and_stays_there() -> None:
             await h.run_for(1.0)
             n, e = _pos(h)
             dists.append(math.hypot(n, e - 40.0))
-        assert max(dists) < 3.0
+        assert max(dists) < 1.0  # held in a 1.2 m/s current (measured 0.45-0.48 m, seeds 1-5)
 
 
 async def test_rtl_returns_home_and_keeps_station_against_the_current() -> None:
@@ -121,12 +121,14 @@ async def test_rtl_returns_home_and_keeps_station_against_the_current() -> None:
         await h.run_for(15.0)
         assert math.hypot(*_pos(h)) > 30.0
         assert vehicle.set_mode(11) is None
+        assert vehicle.home is not None
+        home = LocalFrame(*HOME).to_ne(vehicle.home.lat_deg, vehicle.home.lon_deg)  # set at arming
         await h.run_for(50.0)
         dists = []
         for _ in range(20):
             await h.run_for(1.0)
-            dists.append(math.hypot(*_pos(h)))
-        assert max(dists) < 3.0
+            dists.append(math.dist(_pos(h), home))
+        assert max(dists) < 2.0  # WP_RADIUS (measured 1.2-1.9 m, seeds 1-5: the arrival loop settling)
 
 
 async def test_loiter_keeps_station_where_hold_drifts() -> None:
