@@ -39,7 +39,12 @@ exemption (radial error 1.27 m capped, 0.44 m exempt).  And the nozzle angle is 
 at least the thrust of ``yaw_inversion_min_throttle``, so a small yaw demand at idle does not
 throw the nozzle from stop to stop.  Measured on the full SITL stack, seeds 1-5, last 20 s:
 GUIDED in 1.2 m/s current 0.45-0.48 m from its point, LOITER in 1.5 m/s 0.55-0.68 m after 20 s.
-PID holds these tighter (0.32-0.37 m, 0.20-0.24 m): at idle the inversion has little to invert.
+PID holds these tighter (0.32-0.37 m, 0.20-0.24 m), and with 3 m/s wind and Hs 0.3 m waves
+added this law lets the boat wander 5-7 m off the point where PID stays within 0.6 m: the qLPV
+model is evaluated on over-ground velocities, and near standstill in a current those are mostly
+drift (the hull's sway and yaw terms then change with every heading change faster than the UKF
+follows).  So station keeping runs the PID family unless ``USV_STN_CTRL`` is 1
+(:mod:`companion.control.system`); this law is for making way.
 """
 
 from __future__ import annotations

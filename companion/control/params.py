@@ -17,12 +17,20 @@ from companion.params import ParamDef
 
 CTRL_PID = 0
 CTRL_ACTIVE_MODEL = 1
+STN_CTRL_PID = 0
+STN_CTRL_SELECTED = 1
 
 PARAMS: tuple[ParamDef, ...] = (
     ParamDef("USV_CTRL_TYPE", CTRL_ACTIVE_MODEL, 0, 1, "",
              "Controller family: 0 = PID course/speed (baseline), 1 = active-model (qLPV inversion + "
              "UKF model-error compensation, chapter Fig. 6). May be changed while moving.",
              is_int=True, choices=((CTRL_PID, "PID"), (CTRL_ACTIVE_MODEL, "ActiveModel"))),
+    ParamDef("USV_STN_CTRL", STN_CTRL_PID, 0, 1, "",
+             "Controller family for station keeping (LOITER, GUIDED and RTL holding their point): 0 = PID "
+             "whatever USV_CTRL_TYPE says, 1 = the USV_CTRL_TYPE family.  The active-model inversion "
+             "evaluates the qLPV model on over-ground velocities, which a strong current makes wrong near "
+             "standstill (usv bench control: station_keeping).",
+             is_int=True, choices=((STN_CTRL_PID, "PID"), (STN_CTRL_SELECTED, "USV_CTRL_TYPE"))),
     ParamDef("USV_HDG_P", 2.0, 0.1, 5.0, "1/s",
              "Heading loop: desired turn rate per radian of heading error."),
     ParamDef("USV_TURN_MAX", 45.0, 5.0, 120.0, "deg/s", "Largest turn rate the heading loop asks for."),

@@ -6,7 +6,8 @@ the parameter table (rebuilt when a parameter changes), picks the controller fam
 the current actuator state), and publishes :class:`~companion.messages.ActuatorCommand` on
 ``actuator_cmd`` and the guidance :class:`~companion.messages.Setpoint` on ``setpoint``.
 The active-model family needs an identified qLPV model and the UKF's ``model_error`` topic;
-without a model it falls back to PID and says so once.
+without a model it falls back to PID and says so once.  Station-keeping targets
+(``ControlTarget.hold_station``) are steered by PID unless ``USV_STN_CTRL`` is 1.
 """
 
 from __future__ import annotations
@@ -19,7 +20,14 @@ from collections.abc import Callable
 from companion.app import Context
 from companion.control.active_model import ActiveModelController
 from companion.control.actuator import ActuatorMapper
-from companion.control.params import CTRL_ACTIVE_MODEL, active_model_config, actuator_limits, pid_config
+from companion.control.params import (
+    CTRL_ACTIVE_MODEL,
+    CTRL_PID,
+    STN_CTRL_PID,
+    active_model_config,
+    actuator_limits,
+    pid_config,
+)
 from companion.control.pid_family import PidController
 from companion.control.target import ControlOutput, ControlTarget, CourseSpeedController
 from companion.messages import ActuatorCommand, ModelError, NavState, Setpoint, StatusText
@@ -119,6 +127,8 @@ class ControlSystem:
         dt = min(DT_MAX_S, max(DT_MIN_S, dt))
         self._last_t_s = nav.t_s
         kind = self.family_type()
+        if target.hold_station and int(self.ctx.params.get("USV_STN_CTRL")) == STN_CTRL_PID:
+            kind = CTRL_PID
         fam = self._family(kind)
         if kind != self._active_type:
             fam.reset(nav)

@@ -31,6 +31,9 @@ class ControlTarget:
     """Feed-forward turn rate (e.g. U/R when circling)."""
     is_heading: bool = False
     """``course_rad`` is a heading: do not remove the crab angle (station keeping, course hold)."""
+    hold_station: bool = False
+    """The target comes from station keeping (LOITER, GUIDED and RTL on their point), which the
+    control system steers with the family ``USV_STN_CTRL`` names."""
 
 
 @dataclass(frozen=True, slots=True)

@@ -95,7 +95,7 @@ class StationTask:
     def step(self, nav: NavState, dt_s: float) -> ControlTarget:
         out = self.keeper.update(self.frame.to_ne(nav.lat_deg, nav.lon_deg), dt_s)
         self.distance_m = out.distance_m
-        return ControlTarget(out.heading_rad, out.surge_speed_mps, is_heading=True)
+        return ControlTarget(out.heading_rad, out.surge_speed_mps, is_heading=True, hold_station=True)
 
 
 class CircleTask:

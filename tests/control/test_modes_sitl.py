@@ -97,7 +97,10 @@ def test_mission_items_with_bad_coordinates_are_refused_at_upload() -> None:
 
 
 async def test_guided_goes_to_the_target_and_stays_there() -> None:
-    async with SitlHarness(seed=2, current="1.2,0", full_stack=True) as h:
+    """A flood current with wind and waves; station keeping runs the PID family (USV_STN_CTRL 0)
+    although USV_CTRL_TYPE is the active model: the active-model law lets the boat wander 5-7 m
+    off the point here."""
+    async with SitlHarness(seed=2, current="1.2,0", wind="3,45", waves="0.3", full_stack=True) as h:
         vehicle = await _start(h)
         from companion.vehicle import GuidedTarget
 
@@ -110,7 +113,7 @@ async def test_guided_goes_to_the_target_and_stays_there() -> None:
             await h.run_for(1.0)
             n, e = _pos(h)
             dists.append(math.hypot(n, e - 40.0))
-        assert max(dists) < 1.0  # held in a 1.2 m/s current (measured 0.45-0.48 m, seeds 1-5)
+        assert max(dists) < 1.0  # measured 0.22-0.55 m, seeds 1-3
 
 
 async def test_rtl_returns_home_and_keeps_station_against_the_current() -> None:
