@@ -9,18 +9,25 @@ A water jet idles with thrust (the simulated boat creeps at about 0.7 m/s at idl
   holds under control (:class:`~companion.modes.navigation.CircleTask`, radius
   ``max(USV_TURN_RAD, LOIT_RADIUS - 0.5 m)``).
 
-It starts by keeping station and switches to orbiting after about 8 s (net, leaky count) outside
-LOIT_RADIUS while the jet idles or creeps ahead (the current cannot hold it back); it switches
-back when the orbit is pushed off its circle by more than its radius for as long.  Either way it holds the
+It starts by keeping station and switches to orbiting after about 3 s (net, leaky count) of the
+creep signature: the jet idles, the bow is on the station heading (within 45 degrees) and the
+boat still makes headway over ground (more than 0.2 m/s), so the current cannot hold it back.
+Distance from the point is not evidence: a boat that must turn round into a strong current, or
+that motors back up to its point, is outside LOIT_RADIUS without the current being weak (the
+earlier rule, outside while idling or moving ahead, sent the boat orbiting in a 1.2 m/s current
+and it was swept 7 m off).  It switches back when the orbit is pushed off its circle by more
+than its radius for about 8 s.  Either way it holds the
 point actively, unlike ArduPilot Rover, which drifts to the edge of LOIT_RADIUS and drives back
 (issue 20842).
 """
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 from companion.control.system import control_of
+from companion.guidance.geo import wrap_pi
 from companion.messages import NavState
 from companion.modes.base import STANDARD_MODE_POSITION_HOLD
 from companion.modes.navigation import CircleTask, NavMode, StationTask, param
@@ -29,7 +36,10 @@ if TYPE_CHECKING:
     from companion.vehicle import Vehicle
 
 IDLE_THROTTLE = 0.02
-SWITCH_AFTER_S = 8.0
+ORBIT_AFTER_S = 3.0
+STATION_AFTER_S = 8.0
+CREEP_MPS = 0.2
+ON_HEADING_RAD = math.radians(45.0)
 
 
 class LoiterMode(NavMode):
@@ -61,24 +71,24 @@ class LoiterMode(NavMode):
         self._last_nav_s = nav.t_s
         task = self.task
         if isinstance(task, StationTask):
-            # the point is not being held although the jet idles: the current is too weak to stem
+            # the jet idles bow on its station heading and still makes headway: too weak a current
             at_idle = control_of(vehicle.ctx).mapper.throttle <= IDLE_THROTTLE
-            outside = task.distance_m > param(vehicle.ctx.params, "LOIT_RADIUS")
-            failing = outside and (at_idle or nav.u_mps > 0.2)
-            if self._count(failing, dt):
+            on_heading = abs(wrap_pi(nav.heading_rad - task.keeper.heading_rad)) < ON_HEADING_RAD
+            creeping = at_idle and on_heading and nav.u_mps > CREEP_MPS
+            if self._count(creeping, dt, ORBIT_AFTER_S):
                 self.task = CircleTask(vehicle.ctx.params, self.point, self._orbit_radius_m(vehicle))
         elif isinstance(task, CircleTask):
             # pushed off the circle by more than its radius: the current is too strong to orbit
             failing = task.on_circle_since_s is not None and abs(task.radial_error_m) > task.radius_m
-            if self._count(failing, dt):
+            if self._count(failing, dt, STATION_AFTER_S):
                 self.task = StationTask(vehicle.ctx.params, self.point, nav.heading_rad)
         if self.task is not None:
             self.run_task(vehicle, nav, self.task)
 
-    def _count(self, failing: bool, dt: float) -> bool:
-        """Leaky evidence counter: True (and reset) after SWITCH_AFTER_S of net failure."""
+    def _count(self, failing: bool, dt: float, after_s: float) -> bool:
+        """Leaky evidence counter: True (and reset) after ``after_s`` of net failure."""
         self._evidence_s = max(0.0, self._evidence_s + (dt if failing else -0.5 * dt))
-        if self._evidence_s > SWITCH_AFTER_S:
+        if self._evidence_s > after_s:
             self._evidence_s = 0.0
             return True
         return False
