@@ -134,16 +134,21 @@ async def test_rtl_returns_home_and_keeps_station_against_the_current() -> None:
         assert max(dists) < 2.0  # WP_RADIUS (measured 1.2-1.9 m, seeds 1-5: the arrival loop settling)
 
 
+async def _loiter_for_a_minute(h: SitlHarness, vehicle: Vehicle) -> list[float]:
+    """Enter LOITER where the boat is; its distance from there once a second for 60 s."""
+    start = _pos(h)
+    assert vehicle.set_mode(5) is None
+    dists = []
+    for _ in range(60):
+        await h.run_for(1.0)
+        dists.append(math.dist(_pos(h), start))
+    return dists
+
+
 async def test_loiter_keeps_station_where_hold_drifts() -> None:
     async with SitlHarness(seed=5, current="1.5,90", wind="3,0", full_stack=True) as h:
         vehicle = await _start(h)
-        start = _pos(h)
-        assert vehicle.set_mode(5) is None
-        dists = []
-        for _ in range(60):
-            await h.run_for(1.0)
-            n, e = _pos(h)
-            dists.append(math.hypot(n - start[0], e - start[1]))
+        dists = await _loiter_for_a_minute(h, vehicle)
         assert max(dists[20:]) < 2.0  # LOIT_RADIUS
         assert vehicle.set_mode(4) is None
         before = _pos(h)
@@ -158,13 +163,7 @@ async def test_loiter_entered_facing_downstream_turns_round_and_holds_the_point(
     station instead of switching to an orbit that the current sweeps away (measured 6.8-7.1 m
     with the earlier rule, 1.1-1.3 m now, seeds 1-3)."""
     async with SitlHarness(seed=2, current="1.2,0", wind="3,45", waves="0.3", full_stack=True) as h:
-        vehicle = await _start(h)
-        start = _pos(h)
-        assert vehicle.set_mode(5) is None
-        dists = []
-        for _ in range(60):
-            await h.run_for(1.0)
-            dists.append(math.dist(_pos(h), start))
+        dists = await _loiter_for_a_minute(h, await _start(h))
         assert max(dists[20:]) < 2.0  # LOIT_RADIUS
 
 
