@@ -32,7 +32,7 @@ from benchmarks.control_rig import Environment, Rig
 from companion.control.active_model import throttle_for_thrust
 from companion.control.target import ControlTarget
 from companion.guidance.circle import CircleTracker
-from companion.guidance.geo import wrap_pi
+from companion.guidance.geo import distance_to_segment_m, wrap_pi
 from companion.guidance.los import LosFollower, LosType
 from companion.guidance.params import circle_gains, leg_config, los_gains, station_gains
 from companion.guidance.station import StationKeeper
@@ -152,12 +152,6 @@ def speed_wave_floor(model: QLPVModel, seed: int, quick: bool = False) -> dict[s
             "oracle_peak_pct": round(float(np.max(oracle)) / 4.0 * 100.0, 2)}
 
 
-def _dist_to_segment(p: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
-    ax, ay = b[0] - a[0], b[1] - a[1]
-    t = max(0.0, min(1.0, ((p[0] - a[0]) * ax + (p[1] - a[1]) * ay) / (ax * ax + ay * ay)))
-    return math.hypot(p[0] - a[0] - t * ax, p[1] - a[1] - t * ay)
-
-
 def square(ctrl_type: int, model: QLPVModel, seed: int, quick: bool = False) -> dict[str, Any]:
     env = Environment(seed=seed, current_mps=0.5, current_toward_deg=90.0, **WEATHER)
     rig = Rig(ctrl_type, env, model)
@@ -182,7 +176,7 @@ def square(ctrl_type: int, model: QLPVModel, seed: int, quick: bool = False) -> 
                 break
             rig.step(st.target)
             if i >= 1:
-                whole.append(min(_dist_to_segment(pos, a, b) for a, b in scored_legs))
+                whole.append(min(distance_to_segment_m(pos, a, b) for a, b in scored_legs))
                 if 10.0 <= st.errors.along_m <= st.errors.leg_length_m - 10.0:
                     mid.append(abs(st.errors.cross_m))
     return {"mid_leg_rms_m": round(_rms(mid), 3), "mid_leg_max_m": round(max(mid), 3),

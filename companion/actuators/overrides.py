@@ -38,17 +38,14 @@ def owned_channels(params: ParamStore) -> dict[int, str]:
     """1-based channel -> function of every output the autopilot owns (never overridable)."""
     owned: dict[int, str] = {}
     for name, default, function in OWNED_CHANNEL_PARAMS:
-        channel = params.get_int(name) if name in params else default
+        channel = int(params.get_or(name, default))
         owned.setdefault(channel, function)
     return owned
 
 
 def relay_channel(params: ParamStore, relay: int) -> int:
     """1-based output channel of relay ``relay`` (0: not wired)."""
-    name = f"USV_RLY{relay}_CH"
-    if not 0 <= relay < N_RELAYS or name not in params:
-        return 0
-    return params.get_int(name)
+    return int(params.get_or(f"USV_RLY{relay}_CH", 0)) if 0 <= relay < N_RELAYS else 0
 
 
 def override_refusal(params: ParamStore, channel: int, n_channels: int) -> str | None:

@@ -127,10 +127,12 @@ class ActiveModelController:
         self._b_r = float(b[2, 0])
         if self._b_u <= 0 or self._b_r == 0:
             raise ValueError(f"model {model.name!r} has no surge/yaw control authority (B = {b.tolist()})")
-        self.last_delta_nu = (0.0, 0.0, 0.0)
-        self.raw_delta_nu = (0.0, 0.0, 0.0)
+        self.dnu_u_raw = 0.0
+        """Latest delta_nu_u (m/s^2); the speed law filters it itself."""
+        self.dnu_r = 0.0
+        """delta_nu_r low-passed with ``model_error_tau_s`` (rad/s^2)."""
         self.speed_law = AmSpeedLaw(model, self.cfg.speed)
-        self._dnu_lp = [LowPass(self.cfg.model_error_tau_s, 0.0) for _ in range(3)]
+        self._dnu_r_lp = LowPass(self.cfg.model_error_tau_s, 0.0)
         self._last_rd: float | None = None
         self._rd_dot_lp = LowPass(self.cfg.rate_ff_tau_s, 0.0)
 
@@ -140,15 +142,15 @@ class ActiveModelController:
         self._last_rd = None
         self._rd_dot_lp.value = 0.0
 
-    def _dnu(self, dt_s: float) -> tuple[float, float, float]:
+    def _update_model_error(self, dt_s: float) -> None:
+        """Take the UKF's latest delta_nu (kept as it was when none or not finite; zero when
+        compensation is off).  Sway is the zero dynamics: its row is not used."""
         if not self.cfg.compensate_model_error or self.delta_nu_source is None:
-            return (0.0, 0.0, 0.0)
+            return
         dn = self.delta_nu_source()
         if dn is not None and all(math.isfinite(x) for x in dn):
-            lp = self._dnu_lp
-            self.raw_delta_nu = (dn[0], dn[1], dn[2])
-            self.last_delta_nu = (lp[0].step(dn[0], dt_s), lp[1].step(dn[1], dt_s), lp[2].step(dn[2], dt_s))
-        return self.last_delta_nu
+            self.dnu_u_raw = dn[0]
+            self.dnu_r = self._dnu_r_lp.step(dn[2], dt_s)
 
     def _rd_dot(self, r_d: float, dt_s: float) -> float:
         """Derivative of the virtual control ``r_d`` through a first-order command filter
@@ -214,11 +216,10 @@ class ActiveModelController:
         r_d = desired_turn_rate(c.heading, e_psi, target.course_rate_radps, nav.u_mps)
         nu = np.array([nav.u_mps, nav.v_mps, nav.r_radps])
         f = self.model.a_of_nu(nu) @ nu
-        dnu = self._dnu(dt_s)
+        self._update_model_error(dt_s)
         r_dot_d = c.rate_k_per_s * (r_d - nav.r_radps) + self._rd_dot(r_d, dt_s)
-        w_sin = (r_dot_d - f[2] - dnu[2]) / self._b_r
-        dnu_u_raw = self.raw_delta_nu[0] if c.compensate_model_error else 0.0
-        w_cos = self.speed_law.thrust_demand(nav, target.speed_mps, dnu_u_raw, dt_s, float(f[0]))
+        w_sin = (r_dot_d - f[2] - self.dnu_r) / self._b_r
+        w_cos = self.speed_law.thrust_demand(nav, target.speed_mps, self.dnu_u_raw, dt_s, float(f[0]))
         if target.speed_mps < c.turn_boost_speed_mps:
             delta, thrust = self._allocate_near_standstill(w_sin, w_cos, nav, target, e_psi, r_d)
         else:

@@ -109,8 +109,6 @@ class AmSpeedLaw:
         self._ref_mps: float | None = None
         self._ref_accel_mps2 = 0.0
         self._last_t_s: float | None = None
-        self.last_accel_mps2 = 0.0
-        """Last desired surge acceleration u_dot_d (m/s^2)."""
 
     def reset(self) -> None:
         """Restart the reference model on the next command (keep the disturbance estimate: it
@@ -157,5 +155,4 @@ class AmSpeedLaw:
         raw = delta_nu_u_mps2 if math.isfinite(delta_nu_u_mps2) else self._dnu.value
         dnu_u = self._dnu.step(raw, dt_s)
         u_dot_d = self.accel_demand(nav, speed_mps, dt_s)
-        self.last_accel_mps2 = u_dot_d
         return max(self.cfg.min_thrust, (u_dot_d - f_u - dnu_u) / self._b_u)

@@ -94,8 +94,12 @@ class ControlSystem:
             self._model = self._model_provider(self.ctx)
         return self._model
 
-    def family_type(self) -> int:
-        """The controller family that will run (active model needs a model)."""
+    def family_type(self, target: ControlTarget | None = None) -> int:
+        """The controller family that will run for ``target``: PID for station keeping unless
+        ``USV_STN_CTRL`` is 1, else ``USV_CTRL_TYPE`` (the active model needs a model)."""
+        if (target is not None and target.hold_station
+                and int(self.ctx.params.get("USV_STN_CTRL")) == STN_CTRL_PID):
+            return CTRL_PID
         wanted = int(self.ctx.params.get("USV_CTRL_TYPE"))
         if wanted == CTRL_ACTIVE_MODEL and self.model is None:
             if not self._warned_no_model:
@@ -126,9 +130,7 @@ class ControlSystem:
         dt = 0.01 if self._last_t_s is None else nav.t_s - self._last_t_s
         dt = min(DT_MAX_S, max(DT_MIN_S, dt))
         self._last_t_s = nav.t_s
-        kind = self.family_type()
-        if target.hold_station and int(self.ctx.params.get("USV_STN_CTRL")) == STN_CTRL_PID:
-            kind = CTRL_PID
+        kind = self.family_type(target)
         fam = self._family(kind)
         if kind != self._active_type:
             fam.reset(nav)

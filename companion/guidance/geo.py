@@ -75,6 +75,14 @@ class LocalFrame:
         return lat_deg, lon_deg
 
 
+def distance_to_segment_m(p_ne: tuple[float, float], a_ne: tuple[float, float],
+                          b_ne: tuple[float, float]) -> float:
+    """Distance (m) from the point ``p_ne`` to the segment ``a_ne -> b_ne`` (north-east metres)."""
+    dn, de = b_ne[0] - a_ne[0], b_ne[1] - a_ne[1]
+    t = max(0.0, min(1.0, ((p_ne[0] - a_ne[0]) * dn + (p_ne[1] - a_ne[1]) * de) / (dn * dn + de * de)))
+    return math.hypot(p_ne[0] - a_ne[0] - t * dn, p_ne[1] - a_ne[1] - t * de)
+
+
 def distance_bearing(north_m: float, east_m: float) -> tuple[float, float]:
     """Length (m) and bearing (rad, clockwise from north, [0, 2*pi)) of a north-east vector."""
     return math.hypot(north_m, east_m), wrap_2pi(math.atan2(east_m, north_m))

@@ -34,9 +34,9 @@ class LegConfig:
     sharp_turn_rad: float = math.radians(30.0)
     turn_rate_max_radps: float = math.radians(45.0)
     decel_mps2: float = 0.4
+    """Planned deceleration before a corner (sets where slowing starts)."""
     yaw_lag_s: float = 2.5
     """Time the boat needs to build up its turn rate; the turn starts this much earlier."""
-    """Planned deceleration before a corner (sets where slowing starts)."""
 
 
 @dataclass(frozen=True, slots=True)

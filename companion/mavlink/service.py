@@ -36,9 +36,9 @@ from companion.vehicle import SEVERITY_CRITICAL, SEVERITY_INFO, SEVERITY_WARNING
 log = logging.getLogger(__name__)
 
 TICK_S = 1.0 / streams.MAX_RATE_HZ
+"""Shortest stream scheduler period (vehicle clock)."""
 STREAM_IDLE_S = 0.1
 """Longest the telemetry scheduler sleeps: a new link or a rate request waits at most this."""
-"""Stream scheduler period (vehicle clock)."""
 STATUSTEXT_MAX = 50
 
 

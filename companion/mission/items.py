@@ -111,12 +111,19 @@ class MissionItem:
         )
 
     @classmethod
+    def at(cls, seq: int, command: int, lat_deg: float, lon_deg: float, *, alt_m: float = 0.0,
+           param1: float = 0.0, param2: float = 0.0, param3: float = 0.0, param4: float = 0.0) -> MissionItem:
+        """A positional item (``command`` at a position, relative altitude frame)."""
+        return cls(seq=seq, frame=FRAME_GLOBAL_RELATIVE_ALT_INT, command=command, param1=param1,
+                   param2=param2, param3=param3, param4=param4, x=round(lat_deg * 1e7),
+                   y=round(lon_deg * 1e7), z=alt_m)
+
+    @classmethod
     def waypoint(cls, seq: int, lat_deg: float, lon_deg: float, *, alt_m: float = 0.0,
                  hold_s: float = 0.0, accept_radius_m: float = 0.0) -> MissionItem:
         """A NAV_WAYPOINT at a position (helper for tests and scripts)."""
-        return cls(seq=seq, frame=FRAME_GLOBAL_RELATIVE_ALT_INT, command=CMD_NAV_WAYPOINT,
-                   param1=hold_s, param2=accept_radius_m, x=round(lat_deg * 1e7), y=round(lon_deg * 1e7),
-                   z=alt_m)
+        return cls.at(seq, CMD_NAV_WAYPOINT, lat_deg, lon_deg, alt_m=alt_m, param1=hold_s,
+                      param2=accept_radius_m)
 
     @classmethod
     def home(cls, lat_deg: float, lon_deg: float, alt_m: float = 0.0) -> MissionItem:

@@ -52,7 +52,6 @@ class LoiterMode(NavMode):
         super().__init__()
         self.point = (0.0, 0.0)
         self._evidence_s = 0.0
-        self._last_nav_s: float | None = None
 
     def enter(self, vehicle: Vehicle) -> None:
         super().enter(vehicle)
@@ -60,15 +59,14 @@ class LoiterMode(NavMode):
         assert nav is not None  # requirements() checked the position estimate
         self.point = (nav.lat_deg, nav.lon_deg)
         self.task = StationTask(vehicle.ctx.params, self.point, nav.heading_rad)
-        self._evidence_s, self._last_nav_s = 0.0, None
+        self._evidence_s = 0.0
 
     def _orbit_radius_m(self, vehicle: Vehicle) -> float:
         params = vehicle.ctx.params
         return max(params.get("USV_TURN_RAD"), param(params, "LOIT_RADIUS") - 0.5)
 
     def update(self, vehicle: Vehicle, nav: NavState) -> None:
-        dt = 0.01 if self._last_nav_s is None else min(0.1, max(0.0, nav.t_s - self._last_nav_s))
-        self._last_nav_s = nav.t_s
+        dt = self.dt(nav)
         task = self.task
         if isinstance(task, StationTask):
             # the jet idles bow on its station heading and still makes headway: too weak a current
@@ -83,7 +81,7 @@ class LoiterMode(NavMode):
             if self._count(failing, dt, STATION_AFTER_S):
                 self.task = StationTask(vehicle.ctx.params, self.point, nav.heading_rad)
         if self.task is not None:
-            self.run_task(vehicle, nav, self.task)
+            self.run_task(vehicle, nav, self.task, dt)
 
     def _count(self, failing: bool, dt: float, after_s: float) -> bool:
         """Leaky evidence counter: True (and reset) after ``after_s`` of net failure."""

@@ -171,9 +171,10 @@ class NavMode(Mode):
         self._last_t_s = nav.t_s
         return dt
 
-    def run_task(self, vehicle: Vehicle, nav: NavState, task: Task) -> None:
-        """One step of ``task``: target -> control system -> actuators; telemetry target."""
-        target = task.step(nav, self.dt(nav))
+    def run_task(self, vehicle: Vehicle, nav: NavState, task: Task, dt_s: float | None = None) -> None:
+        """One step of ``task``: target -> control system -> actuators; telemetry target.
+        ``dt_s``: this period's :meth:`dt` if the mode has already taken it."""
+        target = task.step(nav, self.dt(nav) if dt_s is None else dt_s)
         self.control(vehicle).step(nav, target, ignition_on=vehicle.armed)
         point = task.point
         dist_m = task.distance_m if math.isfinite(task.distance_m) else 0.0

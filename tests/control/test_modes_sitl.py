@@ -13,7 +13,7 @@ import math
 import pytest
 
 from companion.control.params import CTRL_ACTIVE_MODEL, CTRL_PID
-from companion.guidance.geo import LocalFrame
+from companion.guidance.geo import LocalFrame, distance_to_segment_m
 from companion.mission import items as mi
 from companion.mission.items import MissionItem, MissionType
 from companion.mission.validate import validate_plan
@@ -38,11 +38,10 @@ def _plan(frame: LocalFrame, items: list[tuple[int, tuple[float, float] | None, 
           ) -> list[MissionItem]:
     plan = [MissionItem.home(*HOME)]
     for seq, (cmd, ne, params) in enumerate(items, start=1):
-        lat, lon = frame.to_lat_lon(*ne) if ne is not None else (0.0, 0.0)
-        frm = mi.FRAME_GLOBAL_RELATIVE_ALT_INT if ne is not None else mi.FRAME_MISSION
-        plan.append(MissionItem(seq=seq, frame=frm, command=cmd, x=round(lat * 1e7), y=round(lon * 1e7),
-                                param1=params.get("param1", 0.0), param2=params.get("param2", 0.0),
-                                param3=params.get("param3", 0.0), param4=params.get("param4", 0.0)))
+        if ne is None:
+            plan.append(MissionItem(seq=seq, frame=mi.FRAME_MISSION, command=cmd, **params))
+        else:
+            plan.append(MissionItem.at(seq, cmd, *frame.to_lat_lon(*ne), **params))
     return plan
 
 
@@ -228,16 +227,6 @@ def _mid_leg_cross_track_m(track: list[tuple[float, float]], a: tuple[float, flo
     return out
 
 
-def _off_path_m(p: tuple[float, float], corners: list[tuple[float, float]]) -> float:
-    """Distance from ``p`` to the polyline through ``corners``."""
-    best = math.inf
-    for a, b in itertools.pairwise(corners):
-        dn, de = b[0] - a[0], b[1] - a[1]
-        t = max(0.0, min(1.0, ((p[0] - a[0]) * dn + (p[1] - a[1]) * de) / (dn * dn + de * de)))
-        best = min(best, math.hypot(p[0] - a[0] - t * dn, p[1] - a[1] - t * de))
-    return best
-
-
 @pytest.mark.parametrize("seed", [2, 3])
 async def test_auto_square_in_cross_current_holds_the_middle_of_every_leg(seed: int) -> None:
     """The issue's square, flown as an AUTO mission on the full stack (active model, shipped
@@ -264,4 +253,5 @@ async def test_auto_square_in_cross_current_holds_the_middle_of_every_leg(seed: 
         pooled = [x for leg in mid for x in leg]  # as usv bench pools the middles of the legs
         assert math.sqrt(sum(x * x for x in pooled) / len(pooled)) <= 0.2
         flown = [p for seq in (2, 3, 4, 5) for p in legs[seq]][50:]  # from 5 s after the start
-        assert max(_off_path_m(p, corners) for p in flown) <= 2.0
+        legs_ne = list(itertools.pairwise(corners))
+        assert max(min(distance_to_segment_m(p, a, b) for a, b in legs_ne) for p in flown) <= 2.0

@@ -10,7 +10,6 @@ import math
 import pytest
 
 from companion.guidance.geo import LocalFrame
-from companion.mission import items as mi
 from companion.mission.items import MissionItem, MissionType
 from companion.mission.validate import validate_plan
 from companion.vehicle import MissionState, vehicle_of
@@ -24,12 +23,6 @@ LAUNCH_NE = (30.0, 10.0)
 AFTER_NE = (0.0, 30.0)
 
 
-def _item(seq: int, command: int, frame: LocalFrame, ne: tuple[float, float], **params: float) -> MissionItem:
-    lat, lon = frame.to_lat_lon(*ne)
-    return MissionItem(seq=seq, frame=mi.FRAME_GLOBAL_RELATIVE_ALT_INT, command=command,
-                       x=round(lat * 1e7), y=round(lon * 1e7), **params)
-
-
 @pytest.mark.parametrize(("seed", "current", "bearing_deg"), [(4, "0.2,120", 250.0), (7, "0.3,0", 90.0),
                                                              (11, "0.1,200", 10.0)])
 async def test_launch_at_point_orients_to_the_bearing_stops_fires_and_continues(
@@ -39,8 +32,8 @@ async def test_launch_at_point_orients_to_the_bearing_stops_fires_and_continues(
         vehicle = vehicle_of(h.ctx)
         frame = LocalFrame(*HOME)
         plan = [MissionItem.home(*HOME),
-                _item(1, UsvCmd.NAV_LAUNCH_AT, frame, LAUNCH_NE, param1=bearing_deg),
-                _item(2, mi.CMD_NAV_WAYPOINT, frame, AFTER_NE)]
+                MissionItem.at(1, UsvCmd.NAV_LAUNCH_AT, *frame.to_lat_lon(*LAUNCH_NE), param1=bearing_deg),
+                MissionItem.waypoint(2, *frame.to_lat_lon(*AFTER_NE))]
         assert validate_plan(plan, home_first=True) is None
         vehicle.missions.replace(MissionType.MISSION, plan)
         pressure_before = h.launcher.pressure_mpa

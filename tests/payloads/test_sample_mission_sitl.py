@@ -13,7 +13,6 @@ from companion.guidance.geo import LocalFrame
 from companion.link.dialect import mav
 from companion.mavlink.commands import CommandRequest, registry_of
 from companion.messages import StatusText
-from companion.mission import items as mi
 from companion.mission.items import MissionItem, MissionType
 from companion.mission.validate import validate_plan
 from companion.payloads.registry import payloads_of
@@ -28,20 +27,14 @@ POINTS_NE = [(25.0, 0.0), (25.0, 25.0), (0.0, 25.0), (-15.0, 10.0), (10.0, 10.0)
 VOLUME_ML = 100.0
 
 
-def _sample_item(seq: int, frame: LocalFrame, north_m: float, east_m: float) -> MissionItem:
-    lat, lon = frame.to_lat_lon(north_m, east_m)
-    return MissionItem(seq=seq, frame=mi.FRAME_GLOBAL_RELATIVE_ALT_INT, command=UsvCmd.NAV_SAMPLE_HERE,
-                       x=round(lat * 1e7), y=round(lon * 1e7), param1=0.0, param2=0.0, param3=0.0,
-                       param4=VOLUME_ML)
-
-
 async def test_four_sample_items_fill_four_bottles_within_2_5_m_and_a_fifth_is_refused() -> None:
     async with SitlHarness(seed=2, current="0.2,45", full_stack=True) as h:
         await h.run_for(2.0)
         vehicle = vehicle_of(h.ctx)
         frame = LocalFrame(*HOME)
         plan = [MissionItem.home(*HOME)]
-        plan += [_sample_item(i + 1, frame, n, e) for i, (n, e) in enumerate(POINTS_NE)]
+        plan += [MissionItem.at(i + 1, UsvCmd.NAV_SAMPLE_HERE, *frame.to_lat_lon(n, e), param4=VOLUME_ML)
+                 for i, (n, e) in enumerate(POINTS_NE)]
         assert validate_plan(plan, home_first=True) is None
         vehicle.missions.replace(MissionType.MISSION, plan)
         texts: list[str] = []
