@@ -27,6 +27,7 @@ import contextlib
 import math
 import shutil
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 from types import TracebackType
 from typing import Any
@@ -140,6 +141,14 @@ class SitlHarness:
         for task in self._tasks:
             if task.done() and not task.cancelled() and task.exception() is not None:
                 raise RuntimeError(f"service {task.get_name()} crashed") from task.exception()
+
+    async def run_until(self, done: Callable[[], bool], max_s: float, step_s: float = 1.0) -> bool:
+        """Run in ``step_s`` steps until ``done()`` or ``max_s`` of simulated time; ``done()`` then."""
+        for _ in range(math.ceil(max_s / step_s)):
+            await self.run_for(step_s)
+            if done():
+                return True
+        return done()
 
     # -- life cycle -----------------------------------------------------------------------
     async def __aenter__(self) -> SitlHarness:

@@ -63,10 +63,7 @@ async def test_auto_mission_runs_every_item_and_reports_complete(ctrl_type: int)
         reached: list[int] = []
         vehicle.reached_listeners.append(reached.append)
         assert vehicle.set_mode(10) is None
-        for _ in range(180):
-            await h.run_for(1.0)
-            if vehicle.mission_state == MissionState.COMPLETE:
-                break
+        await h.run_until(lambda: vehicle.mission_state == MissionState.COMPLETE, 180.0)
         assert reached == [1, 3, 4, 5]
         assert vehicle.mission_state == MissionState.COMPLETE
         assert vehicle.modes.current.name == "HOLD"  # MIS_DONE_BEHAVE 0

@@ -41,10 +41,7 @@ async def test_launch_at_point_orients_to_the_bearing_stops_fires_and_continues(
         vehicle.reached_listeners.append(reached.append)
         assert vehicle.arm() is None
         assert vehicle.set_mode(10) is None
-        for _ in range(300):
-            await h.run_for(1.0)
-            if vehicle.mission_state == MissionState.COMPLETE:
-                break
+        await h.run_until(lambda: vehicle.mission_state == MissionState.COMPLETE, 300.0)
         assert vehicle.mission_state == MissionState.COMPLETE
 
         assert len(h.launcher.events) == 1, "exactly one launch"

@@ -43,10 +43,7 @@ async def test_four_sample_items_fill_four_bottles_within_2_5_m_and_a_fifth_is_r
         vehicle.reached_listeners.append(reached.append)
         assert vehicle.arm() is None
         assert vehicle.set_mode(10) is None
-        for _ in range(400):
-            await h.run_for(1.0)
-            if vehicle.mission_state == MissionState.COMPLETE:
-                break
+        await h.run_until(lambda: vehicle.mission_state == MissionState.COMPLETE, 400.0)
         assert vehicle.mission_state == MissionState.COMPLETE, (reached, texts[-10:])
 
         payloads = payloads_of(h.ctx)
