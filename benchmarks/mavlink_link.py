@@ -23,9 +23,8 @@ from companion.app import Application
 from companion.clock import WallClock
 from companion.config import default_config
 from companion.link.dialect import mav
-from companion.mavlink.service import build_mavlink_services
 from companion.messages import NavState
-from companion.runtime import build_context
+from companion.runtime import build_companion, build_context
 
 
 def _nav(t_s: float) -> NavState:
@@ -68,13 +67,13 @@ async def _bench(quick: bool) -> dict[str, Any]:
             "vehicle.state_dir": str(Path(tmp)), "links.udp_targets": [f"127.0.0.1:{p}" for p in ports],
             "links.tcp_listen": "", "links.tlog": True})
         ctx = build_context(config, WallClock())
-        app = Application(build_mavlink_services(ctx))
+        services = build_companion(ctx)  # no GPS-INS link: the feed below stands in for it
+        app = Application(services.in_start_order())
         task = asyncio.create_task(app.run(install_signal_handlers=False))
 
         async def nav_feed() -> None:
-            topic = ctx.bus.topic("nav", NavState)
             while True:
-                topic.publish(_nav(ctx.clock.now_s()))
+                services.pipeline.on_sample(_nav(ctx.clock.now_s()))
                 await asyncio.sleep(0.01)
 
         feeder = asyncio.create_task(nav_feed())

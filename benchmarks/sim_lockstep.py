@@ -1,4 +1,4 @@
-"""Lockstep round trips per second, simulator <-> companion seam (parser, loop, servo frame).
+"""Lockstep round trips per second, simulator <-> companion seam (parser, pipeline, servo frame).
 
 Over the in-memory pipe (one process, synchronous delivery) and over real pseudo-terminals
 read by pyserial.  Each round trip is one 0.01 s physics step, so ``realtime_factor`` =
@@ -17,9 +17,7 @@ from sim_bridge.sitl import SitlHarness
 
 async def _rate(transport: str, sim_s: float) -> dict[str, Any]:
     async with SitlHarness(transport=transport) as h:
-        topic = h.ctx.bus.topic("actuator_cmd", ActuatorCommand)
-        h.loop.add_stage("bench-driver", lambda nav: topic.publish(
-            ActuatorCommand(nav.t_s, nozzle_rad=0.2, throttle=0.6, ignition_on=True)))
+        h.drive(lambda nav: ActuatorCommand(nav.t_s, nozzle_rad=0.2, throttle=0.6, ignition_on=True))
         await h.run_for(0.5)
         t0 = time.perf_counter()
         await h.run_for(sim_s)

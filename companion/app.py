@@ -14,7 +14,7 @@ import asyncio
 import contextlib
 import logging
 import signal
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Protocol
 
 from companion.bus import Bus
@@ -52,15 +52,19 @@ class BaseService:
         return None
 
 
-@dataclass
+@dataclass(frozen=True)
 class Context:
-    """What every service gets: configuration, clock, bus and parameters."""
+    """What every part gets: configuration, clock, bus and parameters.
+
+    Everything else a part needs (the vehicle, the control system, the links ...) is passed to
+    its constructor explicitly; :mod:`companion.runtime` builds them in start-up order into one
+    typed :class:`~companion.runtime.Services` record.
+    """
 
     config: Config
     clock: Clock
     bus: Bus
     params: ParamStore
-    extras: dict[str, object] = field(default_factory=dict)
 
 
 class Application:

@@ -26,6 +26,32 @@ class FixType(enum.IntEnum):
     RTK_FIXED = 6
 
 
+class Severity(enum.IntEnum):
+    """MAV_SEVERITY of a STATUSTEXT (RFC 5424 levels, 0 the most severe)."""
+
+    EMERGENCY = 0
+    ALERT = 1
+    CRITICAL = 2
+    ERROR = 3
+    WARNING = 4
+    NOTICE = 5
+    INFO = 6
+    DEBUG = 7
+
+
+class ModeNumber(enum.IntEnum):
+    """The vehicle's modes as ArduPilot Rover's custom-mode numbers (heartbeat ``custom_mode``);
+    a mode Rover lacks takes a number Rover does not use (>= 20)."""
+
+    MANUAL = 0
+    HOLD = 4
+    LOITER = 5
+    AUTO = 10
+    RTL = 11
+    GUIDED = 15
+    CRUISE = 20
+
+
 class ControlSource(enum.IntEnum):
     """Who drives the servos, as set by the boat's RC/GCS selector switch servo."""
 
@@ -122,7 +148,7 @@ class StatusText:
     """A human-readable event for the operator (becomes MAVLink STATUSTEXT)."""
 
     t_s: float
-    severity: int
+    severity: Severity
     text: str
 
 
@@ -134,6 +160,26 @@ class VehicleStatus:
     armed: bool
     mode: int
     flags: tuple[str, ...] = field(default_factory=tuple)
+
+
+@dataclass(frozen=True, slots=True)
+class Home:
+    """Home position (return point of RTL)."""
+
+    lat_deg: float
+    lon_deg: float
+    alt_m: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class GuidedTarget:
+    """Where GUIDED goes (DO_REPOSITION / SET_POSITION_TARGET_GLOBAL_INT)."""
+
+    lat_deg: float
+    lon_deg: float
+    speed_mps: float | None = None
+    radius_m: float | None = None
+    t_s: float = 0.0
 
 
 TOPICS: dict[str, type] = {

@@ -1,22 +1,38 @@
-"""Wiring: build the shared context and the ordered list of companion services.
+"""Wiring: the companion's parts, built once in start-up order into one typed record.
 
-This is the one place that knows which services make up the companion and in which
-order they start (links before the modules that publish on them, the control loop last).
-The same list runs on the boat (wall clock, serial devices) and in SITL (simulation
-clock, in-memory pipes or pseudo-terminals to :mod:`sim_bridge`).
+This is the one place that knows which parts make up the companion, what each one is given
+and in which order the services start (links before the modules that send on them, the
+hardware last, so every stage exists before samples flow).  The same wiring runs on the boat
+(wall clock, serial devices) and in SITL (simulation clock, in-memory pipes or
+pseudo-terminals to :mod:`sim_bridge`).  The 100 Hz path itself reads top to bottom in
+:mod:`companion.pipeline`.
 """
 
 from __future__ import annotations
 
 import logging
 import sys
+from dataclasses import dataclass
 
 from companion.app import BaseService, Context, Service
 from companion.bus import Bus
 from companion.clock import Clock
 from companion.config import Config
+from companion.control.system import ControlSystem
+from companion.estimation.service import EstimatorStage, load_companion_model, load_companion_ukf_settings
+from companion.hardware import HardwareIoService, HardwareLinks
+from companion.link.manager import LinkManager
+from companion.mavlink.commands import CommandRegistry
+from companion.mavlink.service import MavlinkService
+from companion.mavlink.telemetry import Telemetry
+from companion.mission.cursor import MissionCursor
+from companion.mission.store import MissionStore
+from companion.modes.manager import MODE_CLASSES, ModeManager
 from companion.param_table import all_param_defs
 from companion.params import ParamStore
+from companion.payloads.service import PayloadService
+from companion.pipeline import LoopStats, Pipeline, ServoOutput
+from companion.vehicle import Vehicle, first_mission_seq
 
 log = logging.getLogger(__name__)
 
@@ -37,6 +53,59 @@ def build_context(config: Config, clock: Clock) -> Context:
             params.set(name, saved.get(name), persist=False)
     params.path = state_dir / "params.toml"
     return Context(config=config, clock=clock, bus=Bus(), params=params)
+
+
+@dataclass(frozen=True)
+class Services:
+    """Every part of one companion, in the order they were built (see :func:`build_companion`)."""
+
+    ctx: Context
+    links: LinkManager
+    """MAVLink transports (UDP, TCP, serial) and the message dispatcher."""
+    commands: CommandRegistry
+    """COMMAND_LONG / COMMAND_INT handlers: the vehicle's and the payloads'."""
+    payloads: PayloadService
+    """Rope launcher, water sampler, their sample log."""
+    estimator: EstimatorStage
+    """qLPV + UKF model error (Eq. 5-11), stage 2 of the pipeline."""
+    control: ControlSystem
+    """PID / active-model controller families and the actuator mapping."""
+    vehicle: Vehicle
+    """Arming, home, targets, modes (stage 3 of the pipeline) and mission progress."""
+    pipeline: Pipeline
+    """The 100 Hz path: sample -> estimator -> modes -> servo frame."""
+    mavlink: MavlinkService
+    """Everything the vehicle says and answers on its links."""
+    hardware: HardwareIoService
+    """GPS-INS in, servo frames out."""
+
+    def in_start_order(self) -> list[Service]:
+        """The services with a life cycle, in start-up order (stopped in reverse)."""
+        return [self.links, self.mavlink, self.payloads, self.hardware]
+
+
+def build_companion(ctx: Context, hardware: HardwareLinks | None = None) -> Services:
+    """Build every part of the companion; ``hardware``: ready-made GPS-INS/servo links (SITL)."""
+    config, params, clock, bus = ctx.config, ctx.params, ctx.clock, ctx.bus
+    links = LinkManager(ctx)
+    commands = CommandRegistry()
+    payloads = PayloadService(ctx, commands)
+    model = load_companion_model(config)
+    estimator = EstimatorStage(model, load_companion_ukf_settings(config))
+    estimator.warm_up()  # load the compiled UKF step now, not on the first sample
+    control = ControlSystem(params, clock, bus, model)
+    profile = str(config["vehicle.profile"])
+    mission = MissionCursor(MissionStore(config.state_dir() / "missions"), first_mission_seq(profile))
+    vehicle = Vehicle(ctx, mission, ModeManager(MODE_CLASSES), control, payloads.payloads)
+    output = ServoOutput(params, clock, bus, LoopStats())
+    output.servo_map.overrides_us = vehicle.servo_overrides_us  # DO_SET_SERVO / DO_SET_RELAY
+    pipeline = Pipeline(bus=bus, estimator=estimator, model_error_user=control, modes=vehicle.update_mode,
+                        output=output)
+    telemetry = Telemetry(ctx, vehicle, payloads.status_builders())
+    mavlink = MavlinkService(ctx, links, vehicle, commands, telemetry)
+    return Services(ctx=ctx, links=links, commands=commands, payloads=payloads, estimator=estimator,
+                    control=control, vehicle=vehicle, pipeline=pipeline, mavlink=mavlink,
+                    hardware=HardwareIoService(ctx, pipeline, hardware))
 
 
 class ReadyBanner(BaseService):
@@ -64,22 +133,3 @@ class ReadyBanner(BaseService):
         lines.append("  press Ctrl-C to stop")
         print("\n".join(lines), flush=True)
         sys.stdout.flush()
-
-
-def build_companion_services(ctx: Context) -> list[Service]:
-    """The companion's services in start-up order."""
-    services: list[Service] = []
-    from companion.estimation.service import make_estimator_stage  # qLPV + UKF model error (Eq. 5-11)
-    from companion.loop import get_control_loop
-
-    get_control_loop(ctx).add_stage("estimator", make_estimator_stage(ctx))  # before any controller
-    from companion.mavlink.service import build_mavlink_services  # links, vehicle, commands, missions
-
-    services.extend(build_mavlink_services(ctx))
-    from companion.payloads.service import PayloadService  # rope launcher, water sampler
-
-    services.append(PayloadService(ctx))
-    from companion.loop import build_hardware_services  # GPS-INS parser, control loop, servo output
-
-    services += build_hardware_services(ctx)  # last: every stage is registered before samples flow
-    return services

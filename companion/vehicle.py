@@ -1,25 +1,44 @@
-"""The vehicle: arming state with pre-arm checks, home position, modes and mission progress.
+"""The vehicle: arming with pre-arm checks, home, the operator's targets, modes, mission progress.
 
-One :class:`Vehicle` lives in ``ctx.extras["vehicle"]`` (see :func:`vehicle_of`).  The
-MAVLink services turn operator requests into calls here (``arm``, ``set_mode``,
-``set_home``, ``set_current``); modes read from it (``nav()``, ``home``, the mission and
-the guided target) and report progress back (``report_reached``, ``mission_complete``).
-Every refusal is a sentence for the operator, never an exception.
+One :class:`Vehicle` per companion, built by :mod:`companion.runtime` from its collaborators
+(the :class:`~companion.modes.manager.ModeManager`, the mission cursor, the control system).
+The MAVLink services turn operator requests into calls here (``arm``, ``set_mode``,
+``set_home``, ``set_current``); the vehicle is also the :class:`~companion.modes.host.ModeHost`
+its modes run against (``update_mode`` is the pipeline's modes stage).  Every refusal is a
+sentence for the operator, never an exception.
 """
 
 from __future__ import annotations
 
-import enum
 import logging
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from companion.app import Context
-from companion.messages import FixType, NavState, StatusText, VehicleStatus
-from companion.mission.items import MissionItem, MissionType
+from companion.control.manual_input import PilotInput, pilot_input
+from companion.control.system import ControlSystem
+from companion.messages import (
+    ActuatorCommand,
+    FixType,
+    GuidedTarget,
+    Home,
+    ModeNumber,
+    NavState,
+    Severity,
+    StatusText,
+    VehicleStatus,
+)
+from companion.mission.cursor import MissionCursor, MissionState
+from companion.mission.items import MissionItem
 from companion.mission.store import MissionStore
 from companion.modes.manager import ModeManager
+from companion.params import ParamStore
+
+if TYPE_CHECKING:
+    from companion.payloads.registry import Payloads
+
+__all__ = ["FORCE_MAGIC", "NAV_STALE_S", "MissionState", "PrearmCheck", "Vehicle", "first_mission_seq"]
 
 log = logging.getLogger(__name__)
 
@@ -29,57 +48,26 @@ NAV_STALE_S = 1.0
 FORCE_MAGIC = 21196
 """param2 of MAV_CMD_COMPONENT_ARM_DISARM that forces arming/disarming (ArduPilot, PX4)."""
 
-# MAV_SEVERITY
-SEVERITY_EMERGENCY = 0
-SEVERITY_CRITICAL = 2
-SEVERITY_ERROR = 3
-SEVERITY_WARNING = 4
-SEVERITY_NOTICE = 5
-SEVERITY_INFO = 6
-
-
-class MissionState(enum.IntEnum):
-    """MISSION_STATE as reported in MISSION_CURRENT (MAVSDK waits for COMPLETE)."""
-
-    UNKNOWN = 0
-    NO_MISSION = 1
-    NOT_STARTED = 2
-    ACTIVE = 3
-    PAUSED = 4
-    COMPLETE = 5
-
-
-@dataclass(frozen=True, slots=True)
-class Home:
-    """Home position (return point of RTL)."""
-
-    lat_deg: float
-    lon_deg: float
-    alt_m: float = 0.0
-
-
-@dataclass(frozen=True, slots=True)
-class GuidedTarget:
-    """Where GUIDED goes (DO_REPOSITION / SET_POSITION_TARGET_GLOBAL_INT)."""
-
-    lat_deg: float
-    lon_deg: float
-    speed_mps: float | None = None
-    radius_m: float | None = None
-    t_s: float = 0.0
-
-
 PrearmCheck = Callable[["Vehicle"], str | None]
 
 
-class Vehicle:
-    """Arming, home, modes and mission progress of one boat."""
+def first_mission_seq(profile: str) -> int:
+    """Under ``ardurover`` item 0 is home and the mission starts at 1."""
+    return 1 if profile == "ardurover" else 0
 
-    def __init__(self, ctx: Context, missions: MissionStore | None = None) -> None:
+
+class Vehicle:
+    """Arming, home, targets, modes and mission progress of one boat."""
+
+    def __init__(self, ctx: Context, mission: MissionCursor, modes: ModeManager, control: ControlSystem,
+                 payloads: Payloads | None = None) -> None:
         self.ctx = ctx
         self.profile: str = str(ctx.config["vehicle.profile"]) if "vehicle.profile" in ctx.config.values \
             else "ardurover"
-        self.missions = missions if missions is not None else MissionStore()
+        self.mission = mission
+        self.modes = modes
+        self.control = control
+        self.payloads = payloads
         self.armed = False
         self.home: Home | None = None
         self.guided_target: GuidedTarget | None = None
@@ -94,17 +82,18 @@ class Vehicle:
         self._prearm_checks: list[tuple[str, PrearmCheck]] = [
             ("position", _check_position), ("attitude", _check_attitude),
         ]
-        self._current_seq = self.first_mission_seq
-        self._mission_started = False
-        self._mission_complete = False
-        self.reached_listeners: list[Callable[[int], None]] = []
         self.home_listeners: list[Callable[[Home], None]] = []
         self.status_listeners: list[Callable[[], None]] = []
-        self.missions.add_listener(self._on_plan_changed)
-        self.modes = ModeManager(self)
-        self.modes.add_listener(self._on_mode_changed)
-        ctx.bus.topic("nav", NavState).add_listener(self._on_nav)
-        ctx.extras["vehicle"] = self
+        self._nav = ctx.bus.topic("nav", NavState)
+        self._status_text = ctx.bus.topic("status_text", StatusText)
+        self._vehicle_status = ctx.bus.topic("vehicle_status", VehicleStatus)
+        mission.changed_listeners.append(self._notify_status_listeners)
+        modes.add_listener(self._on_mode_changed)
+        self._nav.add_listener(self._on_nav)
+
+    @property
+    def params(self) -> ParamStore:
+        return self.ctx.params
 
     @property
     def in_failsafe(self) -> bool:
@@ -112,9 +101,12 @@ class Vehicle:
         return self.failsafe_reason is not None
 
     # -- navigation ---------------------------------------------------------------------
+    def now_s(self) -> float:
+        return self.ctx.clock.now_s()
+
     def nav(self) -> NavState | None:
         """The latest navigation solution, or ``None`` if there is none or it is stale."""
-        nav = self.ctx.bus.topic("nav", NavState).latest()
+        nav = self._nav.latest()
         if nav is None or self.ctx.clock.now_s() - nav.t_s > NAV_STALE_S:
             return None
         return nav
@@ -123,21 +115,26 @@ class Vehicle:
         if self.home is None and nav.position_valid and nav.fix_type >= FixType.FIX_3D:
             self.set_home(nav.lat_deg, nav.lon_deg, nav.alt_m, announce=True)
 
+    def pilot_input(self) -> PilotInput | None:
+        """The pilot's sticks: fresh MANUAL_CONTROL first, else a fresh RC receiver (USV_MAN_TIMEOUT)."""
+        return pilot_input(self.ctx.bus, self.ctx.clock.now_s(), self.ctx.params.get("USV_MAN_TIMEOUT"))
+
     # -- status ---------------------------------------------------------------------------
-    def status(self, text: str, severity: int = SEVERITY_INFO) -> None:
+    def status(self, text: str, severity: Severity = Severity.INFO) -> None:
         """Tell the operator something (becomes a MAVLink STATUSTEXT on every link)."""
         log.info("status: %s", text)
-        self.ctx.bus.topic("status_text", StatusText).publish(
-            StatusText(t_s=self.ctx.clock.now_s(), severity=int(severity), text=text)
-        )
+        self._status_text.publish(StatusText(self.ctx.clock.now_s(), Severity(severity), text))
 
     def publish_status(self) -> None:
         """Publish arming state and mode on topic ``vehicle_status``."""
-        flags = ("mission_complete",) if self._mission_complete else ()
-        self.ctx.bus.topic("vehicle_status", VehicleStatus).publish(
+        flags = ("mission_complete",) if self.mission.complete else ()
+        self._vehicle_status.publish(
             VehicleStatus(t_s=self.ctx.clock.now_s(), armed=self.armed, mode=self.modes.current.number,
                           flags=flags)
         )
+        self._notify_status_listeners()
+
+    def _notify_status_listeners(self) -> None:
         for listener in tuple(self.status_listeners):
             listener()
 
@@ -172,7 +169,7 @@ class Vehicle:
         nav = self.nav()
         if nav is not None and nav.position_valid:
             self.set_home(nav.lat_deg, nav.lon_deg, nav.alt_m, announce=False)
-        self.status("Armed" + (" (forced)" if force else ""), SEVERITY_INFO)
+        self.status("Armed" + (" (forced)" if force else ""), Severity.INFO)
         self.publish_status()
         return None
 
@@ -181,20 +178,28 @@ class Vehicle:
         if not self.armed:
             return None
         self.armed = False
-        self.status("Disarmed" + (f": {reason}" if reason else ""), SEVERITY_INFO)
+        self.status("Disarmed" + (f": {reason}" if reason else ""), Severity.INFO)
         self.publish_status()
         return None
 
     # -- modes ----------------------------------------------------------------------------
     def set_mode(self, number: int) -> str | None:
         """Switch mode; ``None`` or the reason (see :meth:`ModeManager.set_mode`)."""
-        return self.modes.set_mode(number)
+        return self.modes.set_mode(number, self)
+
+    def start_modes(self) -> None:
+        """Enter the initial mode (HOLD) once everything is wired."""
+        self.modes.start(self)
+
+    def update_mode(self, nav: NavState) -> ActuatorCommand | None:
+        """The pipeline's modes stage: the active mode's actuator command for ``nav``."""
+        return self.modes.update(self, nav)
 
     def _on_mode_changed(self, old: object, new: object) -> None:
-        self.status(f"Mode {self.modes.current.name}", SEVERITY_INFO)
+        self.status(f"Mode {self.modes.current.name}", Severity.INFO)
         self.publish_status()
 
-    # -- home -----------------------------------------------------------------------------
+    # -- home and outputs -----------------------------------------------------------------
     def set_home(self, lat_deg: float, lon_deg: float, alt_m: float = 0.0, *,
                  announce: bool = True) -> str | None:
         """Set home; refuses positions that are not on the globe."""
@@ -203,81 +208,67 @@ class Vehicle:
             return f"home {lat_deg}, {lon_deg} is not a valid position"
         self.home = Home(lat_deg, lon_deg, alt_m if math.isfinite(alt_m) else 0.0)
         if announce:
-            self.status(f"Home set to {lat_deg:.7f}, {lon_deg:.7f}", SEVERITY_INFO)
+            self.status(f"Home set to {lat_deg:.7f}, {lon_deg:.7f}", Severity.INFO)
         for listener in tuple(self.home_listeners):
             listener(self.home)
         return None
 
-    # -- mission progress (used by AUTO) --------------------------------------------------
+    def set_servo_override(self, channel: int, pulse_us: int) -> None:
+        self.servo_overrides_us[channel] = pulse_us
+
+    def set_relay_state(self, relay: int, on: bool) -> None:
+        self.relays[relay] = on
+
+    # -- mission progress (the MAVLink side; AUTO moves :attr:`mission`) -------------------
+    @property
+    def missions(self) -> MissionStore:
+        """The stored mission, fence and rally plans."""
+        return self.mission.store
+
     @property
     def first_mission_seq(self) -> int:
-        """Under ``ardurover`` item 0 is home and the mission starts at 1."""
-        return 1 if self.profile == "ardurover" else 0
+        return self.mission.first_seq
 
     def mission_items(self) -> list[MissionItem]:
-        """The stored mission (MAV_MISSION_TYPE_MISSION) with wire sequence numbers.
-
-        Under ``ardurover`` item 0 is the home position and is never executed.
-        """
-        return self.missions.items(MissionType.MISSION)
+        """The stored mission with wire sequence numbers (item 0 is home under ``ardurover``)."""
+        return self.mission.items()
 
     @property
     def current_seq(self) -> int:
         """Sequence number of the current mission item (MISSION_CURRENT.seq)."""
-        return self._current_seq
+        return self.mission.current_seq
 
     def set_current(self, seq: int) -> str | None:
         """Make ``seq`` the current item (MISSION_SET_CURRENT, MAV_CMD_DO_SET_MISSION_CURRENT)."""
-        count = self.missions.count(MissionType.MISSION)
-        seq = max(int(seq), self.first_mission_seq)
-        if seq >= count:
-            return f"mission item {seq} does not exist ({count} items)"
-        self._current_seq = seq
-        self._mission_complete = False
-        for listener in tuple(self.status_listeners):
-            listener()
-        return None
+        return self.mission.set_current(seq)
 
     def start_mission(self) -> None:
         """Mark the mission as running (MISSION_START / entering AUTO); restarts a finished one."""
-        if self._mission_complete:
-            self._current_seq = self.first_mission_seq
-        self._mission_complete = False
-        self._mission_started = True
+        self.mission.start()
+
+    @property
+    def reached_listeners(self) -> list[Callable[[int], None]]:
+        """``listener(seq)`` for every item AUTO reaches (MISSION_ITEM_REACHED)."""
+        return self.mission.reached_listeners
 
     def report_reached(self, seq: int) -> None:
         """AUTO reached item ``seq`` (sends MISSION_ITEM_REACHED)."""
-        for listener in tuple(self.reached_listeners):
-            listener(int(seq))
+        self.mission.report_reached(seq)
 
     def mission_complete(self) -> None:
         """AUTO finished the last item; MISSION_CURRENT reports COMPLETE."""
-        if not self._mission_complete:
-            self._mission_complete = True
-            self.status("Mission complete", SEVERITY_INFO)
+        if self.mission.mark_complete():
+            self.status("Mission complete", Severity.INFO)
             self.publish_status()
 
     @property
     def mission_state(self) -> MissionState:
-        count = self.missions.count(MissionType.MISSION)
-        if count <= self.first_mission_seq:
-            return MissionState.NO_MISSION
-        if self._mission_complete:
-            return MissionState.COMPLETE
-        if self.modes.current.number == 10:  # AUTO
-            return MissionState.ACTIVE
-        return MissionState.PAUSED if self._mission_started else MissionState.NOT_STARTED
+        return self.mission.state(running=self.modes.current.number == ModeNumber.AUTO)
 
     @property
     def mission_total(self) -> int:
         """MISSION_CURRENT.total: mission items without the home item (MAVLink's definition)."""
-        return max(0, self.missions.count(MissionType.MISSION) - self.first_mission_seq)
-
-    def _on_plan_changed(self, mtype: MissionType) -> None:
-        if mtype == MissionType.MISSION:
-            self._current_seq = self.first_mission_seq
-            self._mission_started = False
-            self._mission_complete = False
+        return self.mission.total
 
 
 def _check_position(vehicle: Vehicle) -> str | None:
@@ -294,11 +285,3 @@ def _check_attitude(vehicle: Vehicle) -> str | None:
     if nav is not None and not nav.attitude_valid:
         return "attitude not valid"
     return None
-
-
-def vehicle_of(ctx: Context) -> Vehicle:
-    """The vehicle of this context (created by the MAVLink service at start-up)."""
-    vehicle = ctx.extras.get("vehicle")
-    if not isinstance(vehicle, Vehicle):
-        raise LookupError("no Vehicle in ctx.extras['vehicle']; is the MAVLink service built?")
-    return vehicle

@@ -1,7 +1,8 @@
 """Services that run the simulated boat inside ``usv sitl`` and ``usv sim``.
 
 ``usv sitl``: :class:`SimulatorService` with in-memory pipes to the companion in the same
-process (the companion's links are put in ``ctx.extras`` before its services are built).
+process (:attr:`SimulatorService.companion_links` are handed to
+:func:`companion.runtime.build_companion`).
 ``usv sim``: the same boat behind two hardware ports (GPS-INS out, servo frames in; pseudo-
 terminals by default, or UDP) for a separate ``usv companion`` with ``sensors.gnss_port`` /
 ``servos.port`` set to the printed paths.  Lockstep by default (``sim.lockstep``), capped at
@@ -17,7 +18,7 @@ from collections.abc import Callable
 from companion.app import BaseService, Context, Service
 from companion.clock import SimClock
 from companion.config import ConfigError
-from companion.loop import GNSS_LINK_KEY, SERVO_LINK_KEY
+from companion.hardware import HardwareLinks
 from companion.transport import ByteLink, memory_pipe, open_link
 from sim_bridge.disturbances import spec_from_strings
 from sim_bridge.lockstep import Lockstep
@@ -100,12 +101,13 @@ class SimulatorService(BaseService):
                  servo_port: str = "pty") -> None:
         self.ctx, self.clock, self.transport = ctx, clock, transport
         self.boat = boat_from_config(ctx, clock)
-        ctx.extras["sim_boat"] = self.boat
         self.ports: tuple[ByteLink, ByteLink] | None = None
+        self.companion_links = HardwareLinks()
+        """The companion's ends of the in-memory pipes (``transport="memory"``)."""
         if transport == "memory":
             sim_gnss, comp_gnss = memory_pipe("sim-gnss", "companion-gnss")
             sim_servo, comp_servo = memory_pipe("sim-servo", "companion-servo")
-            ctx.extras[GNSS_LINK_KEY], ctx.extras[SERVO_LINK_KEY] = comp_gnss, comp_servo
+            self.companion_links = HardwareLinks(gnss=comp_gnss, servo=comp_servo)
             self.link: ByteLink = TeeLink(sim_gnss, sim_servo)
         else:
             gnss = sim_side_link(gnss_port, "--gnss-port", clock)

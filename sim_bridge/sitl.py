@@ -3,9 +3,7 @@
 Usage::
 
     async with SitlHarness(seed=1, wind="5,270") as h:
-        cmd = h.ctx.bus.topic("actuator_cmd", ActuatorCommand)
-        h.loop.add_stage("my-controller", lambda nav: cmd.publish(
-            ActuatorCommand(nav.t_s, throttle=0.5, ignition_on=True)))
+        h.drive(lambda nav: ActuatorCommand(nav.t_s, throttle=0.5, ignition_on=True))
         await h.run_for(20.0)                 # 20 s of simulated time, lockstep, as fast as possible
         print(h.plant.state.u_mps)
         h.faults.gps_outage = True            # inject a GNSS outage (also: silent, corrupt_fraction ...)
@@ -16,8 +14,10 @@ It builds a :class:`~companion.clock.SimClock`, a companion :class:`~companion.a
 (state in a temporary directory unless ``state_dir`` is given), the :class:`SimulatedBoat`
 and two byte links (``transport="memory"``: in-memory pipes, synchronous and fastest;
 ``"pty"``: real pseudo-terminals read by pyserial, as on the boat).  The companion side is
-the hardware seam (GPS-INS parser, :class:`~companion.loop.ControlLoop`, servo output) or,
-with ``full_stack=True``, every service of :func:`companion.runtime.build_companion_services`.
+the hardware seam (GPS-INS parser, a :class:`~companion.pipeline.Pipeline` whose modes stage
+is the function given to :meth:`SitlHarness.drive`, servo output) or, with
+``full_stack=True``, the whole companion of :func:`companion.runtime.build_companion`, whose
+parts tests read from :attr:`SitlHarness.services`.
 """
 
 from __future__ import annotations
@@ -35,14 +35,10 @@ from typing import Any
 from companion.app import Context, Service
 from companion.clock import SimClock
 from companion.config import Config, default_config
-from companion.loop import (
-    GNSS_LINK_KEY,
-    SERVO_LINK_KEY,
-    ControlLoop,
-    build_hardware_services,
-    get_control_loop,
-)
-from companion.runtime import build_context
+from companion.hardware import HardwareIoService, HardwareLinks
+from companion.messages import ActuatorCommand, NavState
+from companion.pipeline import LoopStats, Pipeline, ServoOutput
+from companion.runtime import Services, build_companion, build_context
 from companion.transport import ByteLink, SerialLink, memory_pipe
 from sim_bridge.disturbances import spec_from_strings
 from sim_bridge.gpsins import SensorFaults
@@ -80,6 +76,16 @@ class TeeLink:
             await self.inp.close()
 
 
+class Driver:
+    """The hardware seam's stand-in for the modes stage: a function of the sample (or nothing)."""
+
+    def __init__(self) -> None:
+        self.command: Callable[[NavState], ActuatorCommand | None] | None = None
+
+    def update(self, nav: NavState) -> ActuatorCommand | None:
+        return None if self.command is None else self.command(nav)
+
+
 class SitlHarness:
     def __init__(self, *, seed: int = 1, wind: str = "0,0", current: str = "0,0", waves: str = "0",
                  payload_kg: float = 0.0, gnss_rate_hz: int = 100, psi0_deg: float = 0.0,
@@ -107,13 +113,29 @@ class SitlHarness:
         self.transport = transport
         self.full_stack = full_stack
         self.speedup = speedup
-        self.loop: ControlLoop = get_control_loop(self.ctx)
-        self.services: list[Service] = []
+        self.driver = Driver()
+        self.services: Services | None = None
+        """Every part of the companion (``full_stack=True``; ``None`` for the hardware seam)."""
+        self.pipeline: Pipeline | None = None
+        self.hardware: HardwareIoService | None = None
+        self._lifecycle: list[Service] = []
         self._tasks: list[asyncio.Task[None]] = []
         self._sim_link: ByteLink | None = None
         self.lockstep: Lockstep | None = None
 
     # -- what tests use -------------------------------------------------------------------
+    def drive(self, command: Callable[[NavState], ActuatorCommand | None] | None) -> None:
+        """Hardware seam: the actuator command for every sample (``None``: keep the last)."""
+        if self.full_stack:
+            raise RuntimeError("drive() is for the hardware seam; the full stack runs its modes")
+        self.driver.command = command
+
+    @property
+    def stats(self) -> LoopStats:
+        """Samples, frames and the cost of each pipeline stage."""
+        assert self.pipeline is not None, "use 'async with SitlHarness() as h'"
+        return self.pipeline.stats
+
     @property
     def plant(self) -> BoatPlant:
         return self.boat.plant
@@ -155,28 +177,30 @@ class SitlHarness:
         if self.transport == "memory":
             sim_gnss, comp_gnss = memory_pipe("sim-gnss", "companion-gnss")
             sim_servo, comp_servo = memory_pipe("sim-servo", "companion-servo")
-            self.ctx.extras[GNSS_LINK_KEY] = comp_gnss
-            self.ctx.extras[SERVO_LINK_KEY] = comp_servo
+            links = HardwareLinks(gnss=comp_gnss, servo=comp_servo)
             gnss_out: ByteLink = sim_gnss
             servo_in: ByteLink = sim_servo
         else:
             gnss_pty, servo_pty = PtyPort("sim-gnss"), PtyPort("sim-servo")
-            self.ctx.extras[GNSS_LINK_KEY] = SerialLink(gnss_pty.path, 115200, self.clock)
-            self.ctx.extras[SERVO_LINK_KEY] = SerialLink(servo_pty.path, 115200, self.clock)
+            links = HardwareLinks(gnss=SerialLink(gnss_pty.path, 115200, self.clock),
+                                  servo=SerialLink(servo_pty.path, 115200, self.clock))
             gnss_out, servo_in = gnss_pty, servo_pty
         self._sim_link = TeeLink(gnss_out, servo_in)
         await self._sim_link.open()
         self.lockstep = Lockstep(self.boat, self.clock, self._sim_link, speedup=self.speedup)
         if self.full_stack:
-            from companion.runtime import build_companion_services
-
-            self.services = build_companion_services(self.ctx)
-            if not any(s.name == "hardware-io" for s in self.services):
-                self.services = build_hardware_services(self.ctx) + self.services
+            self.services = build_companion(self.ctx, links)
+            self.pipeline, self.hardware = self.services.pipeline, self.services.hardware
+            self._lifecycle = self.services.in_start_order()
         else:
-            self.services = build_hardware_services(self.ctx)
+            ctx = self.ctx
+            output = ServoOutput(ctx.params, ctx.clock, ctx.bus, LoopStats())
+            self.pipeline = Pipeline(bus=ctx.bus, estimator=None, model_error_user=None,
+                                     modes=self.driver.update, output=output)
+            self.hardware = HardwareIoService(ctx, self.pipeline, links)
+            self._lifecycle = [self.hardware]
         try:
-            for service in self.services:
+            for service in self._lifecycle:
                 await service.start()
                 self._tasks.append(asyncio.create_task(service.run(), name=service.name))
         except BaseException:
@@ -190,7 +214,7 @@ class SitlHarness:
             task.cancel()
             with contextlib.suppress(asyncio.CancelledError, Exception):
                 await task
-        for service in reversed(self.services):
+        for service in reversed(self._lifecycle):
             with contextlib.suppress(Exception):
                 await service.stop()
         if self._sim_link is not None:

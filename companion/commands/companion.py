@@ -8,7 +8,7 @@ from companion.app import Application
 from companion.clock import WallClock
 from companion.commands.common import add_config_argument, config_from_args, run_async
 from companion.config import Config
-from companion.runtime import ReadyBanner, build_companion_services, build_context
+from companion.runtime import ReadyBanner, build_companion, build_context
 
 HELP = "run the companion alone against real hardware (GPS-INS and servo serial ports)"
 
@@ -20,7 +20,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 async def run_companion(config: Config) -> None:
     clock = WallClock()
     ctx = build_context(config, clock)
-    services = build_companion_services(ctx)
+    services = build_companion(ctx).in_start_order()
     services.append(ReadyBanner(ctx, f"usv companion ({config.source})"))
     await Application(services).run()
 

@@ -8,7 +8,7 @@ from companion.app import Application
 from companion.clock import SimClock
 from companion.commands.common import add_config_argument, add_sim_arguments, config_from_args, run_async
 from companion.config import Config
-from companion.runtime import ReadyBanner, build_companion_services, build_context
+from companion.runtime import ReadyBanner, build_companion, build_context
 
 HELP = "run the simulated boat together with the companion (software in the loop)"
 
@@ -21,11 +21,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 async def run_sitl(config: Config, duration_s: float | None = None) -> None:
-    from sim_bridge.runtime import build_sim_services
+    from sim_bridge.runtime import SimulatorService
 
     clock = SimClock()
     ctx = build_context(config, clock)
-    app = Application(build_sim_services(ctx, clock) + build_companion_services(ctx))
+    sim = SimulatorService(ctx, clock)  # the simulated boat, in-memory pipes to the companion
+    app = Application([sim, *build_companion(ctx, sim.companion_links).in_start_order()])
     app.add(ReadyBanner(ctx, "usv sitl: simulated boat + companion"))
     if duration_s is not None:
         from sim_bridge.runtime import StopAfter

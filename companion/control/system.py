@@ -1,23 +1,23 @@
-"""The control stack one navigating mode drives: controller family + actuator mapping -> bus.
+"""The control stack one navigating mode drives: controller family + actuator mapping.
 
-:class:`ControlSystem` is created once per vehicle (:func:`control_of`), reads its tuning from
-the parameter table (rebuilt when a parameter changes), picks the controller family from
+:class:`ControlSystem` is created once per vehicle (:mod:`companion.runtime`), reads its tuning
+from the parameter table (rebuilt when a parameter changes), picks the controller family from
 ``USV_CTRL_TYPE`` on every step (so it can be switched while moving; the new family starts from
-the current actuator state), and publishes :class:`~companion.messages.ActuatorCommand` on
-``actuator_cmd`` and the guidance :class:`~companion.messages.Setpoint` on ``setpoint``.
-The active-model family needs an identified qLPV model and the UKF's ``model_error`` topic;
+the current actuator state), and RETURNS the :class:`~companion.messages.ActuatorCommand` to
+the pipeline; the guidance :class:`~companion.messages.Setpoint` goes on ``setpoint`` for
+observers.  The active-model family needs the identified qLPV model and the estimator's model
+error, which the pipeline hands over every sample (:meth:`ControlSystem.use_model_error`);
 without a model it falls back to PID and says so once.  Station-keeping targets
 (``ControlTarget.hold_station``) are steered by PID unless ``USV_STN_CTRL`` is 1.
 """
 
 from __future__ import annotations
 
-import importlib
 import logging
 import math
-from collections.abc import Callable
 
-from companion.app import Context
+from companion.bus import Bus
+from companion.clock import Clock
 from companion.control.active_model import ActiveModelController
 from companion.control.actuator import ActuatorMapper
 from companion.control.params import (
@@ -30,89 +30,72 @@ from companion.control.params import (
 )
 from companion.control.pid_family import PidController
 from companion.control.target import ControlOutput, ControlTarget, CourseSpeedController
-from companion.messages import ActuatorCommand, ModelError, NavState, Setpoint, StatusText
+from companion.messages import ActuatorCommand, ModelError, NavState, Setpoint, Severity, StatusText
 from companion.models.qlpv import QLPVModel
+from companion.params import ParamStore
 
 log = logging.getLogger(__name__)
 
 DT_MIN_S, DT_MAX_S = 0.001, 0.1
 """The step uses sensor time; gaps are clamped so a late sample cannot kick the integrators."""
 
-ModelProvider = Callable[[Context], QLPVModel | None]
-
-
-def default_model_provider(ctx: Context) -> QLPVModel | None:
-    """The qLPV model the estimator stage uses (``ctx.extras['qlpv_model']``), else the configured
-    or shipped params.toml (:func:`companion.estimation.service.load_companion_model`)."""
-    model = ctx.extras.get("qlpv_model")
-    if isinstance(model, QLPVModel):
-        return model
-    try:
-        service = importlib.import_module("companion.estimation.service")
-        model = service.load_companion_model(ctx)
-    except Exception:  # a broken model file must not stop the boat: PID still works
-        log.exception("loading the qLPV model failed")
-        return None
-    return model if isinstance(model, QLPVModel) else None
+MODEL_ERROR_STALE_S = 0.5
+"""An estimate older than this (clock time) is not used by the active-model law."""
 
 
 class ControlSystem:
-    """Controller families, actuator mapping and publication for one vehicle."""
+    """Controller families and actuator mapping for one vehicle."""
 
-    def __init__(self, ctx: Context, model_provider: ModelProvider = default_model_provider) -> None:
-        self.ctx = ctx
-        self._model_provider = model_provider
-        self._model: QLPVModel | None = None
-        self._model_loaded = False
+    def __init__(self, params: ParamStore, clock: Clock, bus: Bus, model: QLPVModel | None) -> None:
+        self.params = params
+        self.clock = clock
+        self.model = model
         self._families: dict[int, CourseSpeedController] = {}
         self._active_type: int | None = None
-        self.mapper = ActuatorMapper(actuator_limits(ctx.params))
+        self.mapper = ActuatorMapper(actuator_limits(params))
         self._last_t_s: float | None = None
         self.last_output: ControlOutput | None = None
         self.last_target: ControlTarget | None = None
+        self._model_error: ModelError | None = None
         self._warned_no_model = False
-        self._cmd = ctx.bus.topic("actuator_cmd", ActuatorCommand)
-        self._setpoint = ctx.bus.topic("setpoint", Setpoint)
-        self._model_error = ctx.bus.topic("model_error", ModelError)
-        ctx.params.add_listener(self._on_param)
+        self._setpoint = bus.topic("setpoint", Setpoint)
+        self._status = bus.topic("status_text", StatusText)
+        params.add_listener(self._on_param)
 
     def _on_param(self, name: str, value: float) -> None:
         if name.startswith("USV_") and name != "USV_CTRL_TYPE":
             self._families.clear()  # rebuilt with the new tuning on the next step
-            self.mapper.limits = actuator_limits(self.ctx.params)
+            self.mapper.limits = actuator_limits(self.params)
+
+    def use_model_error(self, estimate: ModelError) -> None:
+        """The estimator's latest model error (chapter Eq. 5), for the active-model law."""
+        self._model_error = estimate
 
     def _delta_nu(self) -> tuple[float, float, float] | None:
-        msg = self._model_error.latest()
-        if msg is None or self.ctx.clock.now_s() - msg.t_s > 0.5:
+        msg = self._model_error
+        if msg is None or self.clock.now_s() - msg.t_s > MODEL_ERROR_STALE_S:
             return None
         return msg.delta_nu
-
-    @property
-    def model(self) -> QLPVModel | None:
-        if not self._model_loaded:
-            self._model_loaded = True
-            self._model = self._model_provider(self.ctx)
-        return self._model
 
     def family_type(self, target: ControlTarget | None = None) -> int:
         """The controller family that will run for ``target``: PID for station keeping unless
         ``USV_STN_CTRL`` is 1, else ``USV_CTRL_TYPE`` (the active model needs a model)."""
         if (target is not None and target.hold_station
-                and int(self.ctx.params.get("USV_STN_CTRL")) == STN_CTRL_PID):
+                and int(self.params.get("USV_STN_CTRL")) == STN_CTRL_PID):
             return CTRL_PID
-        wanted = int(self.ctx.params.get("USV_CTRL_TYPE"))
+        wanted = int(self.params.get("USV_CTRL_TYPE"))
         if wanted == CTRL_ACTIVE_MODEL and self.model is None:
             if not self._warned_no_model:
                 self._warned_no_model = True
-                self.ctx.bus.topic("status_text", StatusText).publish(StatusText(
-                    self.ctx.clock.now_s(), 4, "Active-model control: no identified model; using PID"))
-            return 0
+                self._status.publish(StatusText(self.clock.now_s(), Severity.WARNING,
+                                                "Active-model control: no identified model; using PID"))
+            return CTRL_PID
         return wanted
 
     def _family(self, kind: int) -> CourseSpeedController:
         fam = self._families.get(kind)
         if fam is None:
-            p = self.ctx.params
+            p = self.params
             if kind == CTRL_ACTIVE_MODEL and self.model is not None:
                 fam = ActiveModelController(self.model, active_model_config(p), delta_nu=self._delta_nu)
             else:
@@ -126,7 +109,7 @@ class ControlSystem:
         self._active_type = None
 
     def step(self, nav: NavState, target: ControlTarget, *, ignition_on: bool = True) -> ActuatorCommand:
-        """Run one control period for ``target`` and publish the actuator command."""
+        """Run one control period for ``target``; the actuator command for the servo frame."""
         dt = 0.01 if self._last_t_s is None else nav.t_s - self._last_t_s
         dt = min(DT_MAX_S, max(DT_MIN_S, dt))
         self._last_t_s = nav.t_s
@@ -141,9 +124,7 @@ class ControlSystem:
         nozzle, throttle, _ = self.mapper.apply(out.nozzle_rad, out.throttle, dt)
         self.last_output, self.last_target = out, target
         self._setpoint.publish(Setpoint(nav.t_s, target.course_rad % (2 * math.pi), target.speed_mps))
-        cmd = ActuatorCommand(t_s=nav.t_s, nozzle_rad=nozzle, throttle=throttle, ignition_on=ignition_on)
-        self._cmd.publish(cmd)
-        return cmd
+        return ActuatorCommand(t_s=nav.t_s, nozzle_rad=nozzle, throttle=throttle, ignition_on=ignition_on)
 
     def idle(self, nav: NavState, *, ignition_on: bool = True) -> ActuatorCommand:
         """Engine idle, nozzle centred (slewed), integrators left alone."""
@@ -157,15 +138,4 @@ class ControlSystem:
         if not (math.isfinite(nozzle_rad) and math.isfinite(throttle)):
             nozzle_rad, throttle = 0.0, 0.0
         nozzle, thr, _ = self.mapper.apply(nozzle_rad, throttle, dt)
-        cmd = ActuatorCommand(t_s=nav.t_s, nozzle_rad=nozzle, throttle=thr, ignition_on=ignition_on)
-        self._cmd.publish(cmd)
-        return cmd
-
-
-def control_of(ctx: Context) -> ControlSystem:
-    """The vehicle's control system (created on first use, kept in ``ctx.extras['control']``)."""
-    system = ctx.extras.get("control")
-    if not isinstance(system, ControlSystem):
-        system = ControlSystem(ctx)
-        ctx.extras["control"] = system
-    return system
+        return ActuatorCommand(t_s=nav.t_s, nozzle_rad=nozzle, throttle=thr, ignition_on=ignition_on)

@@ -44,7 +44,6 @@ class LinkManager(BaseService):
         self.link_listeners: list[Callable[[Link], None]] = []
         self._tlog_dir: Path | None = None
         self._session = time.strftime("%Y%m%d-%H%M%S", time.gmtime(ctx.clock.unix_time_s()))
-        ctx.extras["links"] = self
 
     # -- links ----------------------------------------------------------------------------
     def make_link(self, name: str, write: Callable[[bytes], None]) -> Link:

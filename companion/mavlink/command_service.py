@@ -22,8 +22,9 @@ from companion.app import Context
 from companion.link.dialect import mav
 from companion.link.endpoint import Link
 from companion.link.manager import LinkManager
-from companion.mavlink.commands import MAV_RESULT, CommandRequest, CommandResult, registry_of
-from companion.vehicle import SEVERITY_WARNING, Vehicle
+from companion.mavlink.commands import MAV_RESULT, CommandRegistry, CommandRequest, CommandResult
+from companion.messages import Severity
+from companion.vehicle import Vehicle
 
 log = logging.getLogger(__name__)
 
@@ -36,11 +37,11 @@ _Key = tuple[int, int, int, int]
 class CommandService:
     """Receives commands from every link and answers them."""
 
-    def __init__(self, ctx: Context, links: LinkManager, vehicle: Vehicle) -> None:
+    def __init__(self, ctx: Context, links: LinkManager, vehicle: Vehicle, registry: CommandRegistry) -> None:
         self.ctx = ctx
         self.links = links
         self.vehicle = vehicle
-        self.registry = registry_of(ctx)
+        self.registry = registry
         self._running: dict[_Key, tuple[asyncio.Task[None], list[int]]] = {}
         self._tasks: set[asyncio.Task[None]] = set()
         links.dispatcher.on("COMMAND_LONG", self._on_command)
@@ -91,7 +92,7 @@ class CommandService:
             except Exception:
                 log.exception("after-ack action of command %d failed", cmd.command)
         if result.reason and result.result not in (MAV_RESULT.ACCEPTED, MAV_RESULT.IN_PROGRESS):
-            self.vehicle.status(result.reason, SEVERITY_WARNING)
+            self.vehicle.status(result.reason, Severity.WARNING)
         elif result.reason:
             self.vehicle.status(result.reason)
 
@@ -104,7 +105,7 @@ class CommandService:
         if bad:
             names = ", ".join(f"param{i}" for i in bad)
             return CommandResult.denied(f"{spec.name}: {names} must be a finite number")
-        task = asyncio.ensure_future(spec.handler(self.ctx, cmd))
+        task = asyncio.ensure_future(spec.handler(cmd))
         timer = asyncio.ensure_future(self.ctx.clock.sleep(IN_PROGRESS_AFTER_S))
         try:
             done, _ = await asyncio.wait({task, timer}, return_when=asyncio.FIRST_COMPLETED)

@@ -1,17 +1,18 @@
 """The command registry: COMMAND_LONG / COMMAND_INT id -> async handler.
 
-Any subsystem adds commands with :func:`register_command`::
+Each vehicle has one :class:`CommandRegistry` (built by :mod:`companion.runtime`); the vehicle's
+own commands (:mod:`companion.mavlink.vehicle_commands`) and every payload's
+(:mod:`companion.payloads.registry`) are registered on it.  A handler is a coroutine function of
+the request, bound to the objects it needs::
 
-    from companion.mavlink.commands import CommandRequest, CommandResult, register_command, MAV_RESULT
-
-    async def fire(ctx, cmd: CommandRequest) -> CommandResult:
-        if not vehicle_of(ctx).armed:
+    async def fire(cmd: CommandRequest) -> CommandResult:
+        if not launcher.vehicle_armed():
             return CommandResult.denied("launcher: vehicle not armed")
         cmd.progress(50)                         # sends COMMAND_ACK IN_PROGRESS, progress 50 %
         ...
         return CommandResult.accepted()
 
-    register_command(31010, fire)
+    registry.register(31011, fire, name="USV_LAUNCHER_FIRE")
 
 The command service (:mod:`companion.mavlink.command_service`) answers every command with
 exactly one final COMMAND_ACK: handlers returning after more than a moment are preceded by
@@ -26,10 +27,7 @@ import logging
 import math
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
-
-if TYPE_CHECKING:
-    from companion.app import Context
+from typing import Any
 
 log = logging.getLogger(__name__)
 
@@ -145,7 +143,7 @@ class CommandResult:
         return cls(MAV_RESULT.TEMPORARILY_REJECTED, reason)
 
 
-CommandHandler = Callable[["Context", CommandRequest], Awaitable[CommandResult]]
+CommandHandler = Callable[[CommandRequest], Awaitable[CommandResult]]
 
 
 @dataclass(frozen=True, slots=True)
@@ -187,32 +185,3 @@ class CommandRegistry:
 
     def commands(self) -> list[int]:
         return sorted(self._specs)
-
-    def copy(self) -> CommandRegistry:
-        other = CommandRegistry()
-        other._specs = dict(self._specs)
-        return other
-
-
-DEFAULT_REGISTRY = CommandRegistry()
-"""Commands registered at import time; each vehicle starts from a copy of it."""
-
-
-def register_command(command: int, handler: CommandHandler, *, required_params: tuple[int, ...] = (),
-                     name: str = "", ctx: Context | None = None) -> None:
-    """Register ``handler`` for ``command``.
-
-    Without ``ctx`` the command goes to :data:`DEFAULT_REGISTRY` (every vehicle created
-    afterwards has it); with ``ctx`` only that vehicle's registry changes (also after start).
-    """
-    registry = registry_of(ctx) if ctx is not None else DEFAULT_REGISTRY
-    registry.register(command, handler, required_params=required_params, name=name)
-
-
-def registry_of(ctx: Context) -> CommandRegistry:
-    """This vehicle's registry (created from :data:`DEFAULT_REGISTRY` on first use)."""
-    registry = ctx.extras.get("commands")
-    if not isinstance(registry, CommandRegistry):
-        registry = DEFAULT_REGISTRY.copy()
-        ctx.extras["commands"] = registry
-    return registry

@@ -24,6 +24,9 @@ PRODUCT_NAME = "usv-companion"
 VENDOR_ID = 0x1209  # pid.codes (open-source hardware/software vendor id)
 PRODUCT_ID = 0x0C57
 
+MAVLINK_VERSION = 3
+"""HEARTBEAT.mavlink_version: MAVLink 2 sends 3 (common.xml)."""
+
 CAPABILITIES = (
     mav.MAV_PROTOCOL_CAPABILITY_MISSION_INT
     | mav.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
@@ -76,7 +79,7 @@ def system_state(vehicle: Vehicle) -> int:
 def heartbeat(vehicle: Vehicle) -> Any:
     return mav.MAVLink_heartbeat_message(
         mav.MAV_TYPE_SURFACE_BOAT, autopilot_id(vehicle), base_mode(vehicle),
-        vehicle.modes.current.number, system_state(vehicle), 3)
+        vehicle.modes.current.number, system_state(vehicle), MAVLINK_VERSION)
 
 
 def autopilot_version(vehicle: Vehicle, system_id: int) -> Any:
@@ -109,5 +112,5 @@ def available_modes(vehicle: Vehicle) -> list[Any]:
 
 def current_mode(vehicle: Vehicle) -> Any:
     mode = vehicle.modes.current
-    return mav.MAVLink_current_mode_message(standard_mode_of(mode), mode.number,
-                                            vehicle.modes.intended_number)
+    # intended_custom_mode: a mode change is never pending here, the intended mode is the mode
+    return mav.MAVLink_current_mode_message(standard_mode_of(mode), mode.number, mode.number)

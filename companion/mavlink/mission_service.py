@@ -29,9 +29,10 @@ from companion.link.dialect import mav
 from companion.link.endpoint import Link
 from companion.link.manager import LinkManager
 from companion.mavlink import telemetry
+from companion.messages import Severity
 from companion.mission import validate as v
 from companion.mission.items import MissionItem, MissionType
-from companion.vehicle import SEVERITY_WARNING, Vehicle
+from companion.vehicle import Vehicle
 
 log = logging.getLogger(__name__)
 
@@ -111,7 +112,7 @@ class MissionService:
     def _refuse(self, up: Upload, problem: v.ItemProblem) -> None:
         self.uploads.pop((id(up.link), up.mission_type), None)
         self._ack(up.link, up.peer, problem.code, up.mission_type)
-        self.vehicle.status(f"Mission upload refused: {problem.reason}", SEVERITY_WARNING)
+        self.vehicle.status(f"Mission upload refused: {problem.reason}", Severity.WARNING)
 
     # -- upload -------------------------------------------------------------------------
     def _on_count(self, link: Link, msg: Any) -> None:
@@ -129,7 +130,7 @@ class MissionService:
         capacity = v.MAX_ITEMS[mtype] + (1 if self.home_first and mtype == MissionType.MISSION else 0)
         if count > capacity:
             self._ack(link, peer, v.NO_SPACE, mtype)
-            self.vehicle.status(f"Mission upload refused: {count} items exceed {capacity}", SEVERITY_WARNING)
+            self.vehicle.status(f"Mission upload refused: {count} items exceed {capacity}", Severity.WARNING)
             return
         up = Upload(link, peer, mtype, count)
         self.uploads[(id(link), mtype)] = up
@@ -165,7 +166,7 @@ class MissionService:
             self.store.replace(mtype, up.items)
         except OSError as exc:
             self._ack(link, up.peer, v.ERROR, mtype)
-            self.vehicle.status(f"Mission not saved: {exc}", SEVERITY_WARNING)
+            self.vehicle.status(f"Mission not saved: {exc}", Severity.WARNING)
             return
         self.completed_uploads += 1
         self._ack(link, up.peer, v.ACCEPTED, mtype)
@@ -185,7 +186,7 @@ class MissionService:
                         del self.uploads[key]
                         self._ack(up.link, up.peer, v.OPERATION_CANCELLED, up.mission_type)
                         self.vehicle.status(f"Mission upload timed out at item {up.expected}",
-                                            SEVERITY_WARNING)
+                                            Severity.WARNING)
                     else:
                         up.retries += 1
                         self._request(up)
@@ -247,7 +248,7 @@ class MissionService:
     def _on_set_current(self, link: Link, msg: Any) -> None:
         reason = self.vehicle.set_current(int(msg.seq))
         if reason:
-            self.vehicle.status(f"Set current refused: {reason}", SEVERITY_WARNING)
+            self.vehicle.status(f"Set current refused: {reason}", Severity.WARNING)
         link.send(telemetry.mission_current(self.ctx, self.vehicle))
 
     def _on_reached(self, seq: int) -> None:

@@ -24,8 +24,9 @@ from companion.app import Context
 from companion.link.dialect import mav
 from companion.link.endpoint import Link
 from companion.link.manager import LinkManager
+from companion.messages import Severity
 from companion.params import ParamError
-from companion.vehicle import SEVERITY_WARNING, Vehicle
+from companion.vehicle import Vehicle
 
 log = logging.getLogger(__name__)
 
@@ -112,7 +113,7 @@ class ParamService:
         name = _name(msg)
         params = self.ctx.params
         if name not in params:
-            self.vehicle.status(f"Param set refused: unknown parameter {name!r}", SEVERITY_WARNING)
+            self.vehicle.status(f"Param set refused: unknown parameter {name!r}", Severity.WARNING)
             return
         definition = params.definition(name)
         value = decode_value(float(msg.param_value), int(msg.param_type), definition.is_int, self.bytewise)
@@ -122,10 +123,10 @@ class ParamService:
             params.set(name, value)
         except ParamError as exc:
             link.send(self.value_msg(name))
-            self.vehicle.status(f"Param set refused: {exc}", SEVERITY_WARNING)
+            self.vehicle.status(f"Param set refused: {exc}", Severity.WARNING)
             return
         except OSError as exc:  # disk full or read-only: the value is live but not saved
-            self.vehicle.status(f"Param {name} set but not saved: {exc}", SEVERITY_WARNING)
+            self.vehicle.status(f"Param {name} set but not saved: {exc}", Severity.WARNING)
         if definition.reboot_required:
             self.vehicle.status(f"{name} takes effect after a restart")
         self.links.broadcast(self.value_msg(name))

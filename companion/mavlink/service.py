@@ -1,11 +1,10 @@
-"""The companion as a MAVLink vehicle: wires links, vehicle, commands, params, missions, telemetry.
+"""The companion as a MAVLink vehicle: commands, params, missions and telemetry on every link.
 
-:func:`build_mavlink_services` returns the two services ``usv sitl`` and ``usv companion``
-run: the :class:`~companion.link.manager.LinkManager` (sockets and radios) and
-:class:`MavlinkService` (everything the vehicle says and answers).  The service streams
-telemetry on each link at that link's rates, relays STATUSTEXT, runs the ground-station
-failsafe (FS_GCS_ENABLE/FS_GCS_TIMEOUT/FS_ACTION and the chapter's USV_FS_ENG_STOP engine
-stop) and, unless the control loop does it, calls the active mode on every navigation sample.
+:class:`MavlinkService` is everything the vehicle says and answers on the links of the
+:class:`~companion.link.manager.LinkManager` (sockets and radios; both built by
+:mod:`companion.runtime`).  It streams telemetry on each link at that link's rates, relays
+STATUSTEXT and runs the ground-station failsafe (FS_GCS_ENABLE/FS_GCS_TIMEOUT/FS_ACTION and the
+chapter's USV_FS_ENG_STOP engine stop).
 """
 
 from __future__ import annotations
@@ -15,23 +14,23 @@ import logging
 import math
 from typing import Any
 
-from companion.app import BaseService, Context, Service
+from companion.app import BaseService, Context
 from companion.clock import periodic
 from companion.link import streams
 from companion.link.dialect import mav
 from companion.link.endpoint import Link
 from companion.link.manager import LinkManager
-from companion.mavlink import identity, telemetry
+from companion.mavlink import identity
 from companion.mavlink.command_service import CommandService
-from companion.mavlink.commands import registry_of
+from companion.mavlink.commands import CommandRegistry
 from companion.mavlink.ftp import FtpService
 from companion.mavlink.manual_control import register_manual_control
 from companion.mavlink.mission_service import MissionService
 from companion.mavlink.param_service import ParamService
-from companion.mavlink.vehicle_commands import MODE_GUIDED, register_vehicle_commands
-from companion.messages import NavState, StatusText
-from companion.mission.store import MissionStore
-from companion.vehicle import SEVERITY_CRITICAL, SEVERITY_INFO, SEVERITY_WARNING, GuidedTarget, Vehicle
+from companion.mavlink.telemetry import Telemetry
+from companion.mavlink.vehicle_commands import VehicleCommands
+from companion.messages import GuidedTarget, ModeNumber, Severity, StatusText
+from companion.vehicle import Vehicle
 
 log = logging.getLogger(__name__)
 
@@ -41,33 +40,25 @@ STREAM_IDLE_S = 0.1
 """Longest the telemetry scheduler sleeps: a new link or a rate request waits at most this."""
 STATUSTEXT_MAX = 50
 
+FS_GCS_CONTINUE_AUTO = 2
+"""FS_GCS_ENABLE value: the GCS failsafe lets a running mission continue."""
+FS_ACTION_RTL, FS_ACTION_HOLD = 1, 2
+"""FS_ACTION values (see :mod:`companion.mavlink.params`)."""
+
 
 class MavlinkService(BaseService):
     """Everything the vehicle says on and answers from its MAVLink links."""
 
     name = "mavlink"
 
-    def __init__(self, ctx: Context, links: LinkManager) -> None:
+    def __init__(self, ctx: Context, links: LinkManager, vehicle: Vehicle, commands: CommandRegistry,
+                 telemetry: Telemetry) -> None:
         self.ctx = ctx
         self.links = links
-        existing = ctx.extras.get("vehicle")
-        if isinstance(existing, Vehicle):
-            self.vehicle = existing
-        else:
-            store = MissionStore(ctx.config.state_dir() / "missions")
-            self.vehicle = Vehicle(ctx, store)
-        control_loop = ctx.extras.get("control_loop")
-        self.drive_modes_from_nav = control_loop is None
-        """Without a control loop (tests, tools), the active mode runs on each nav sample."""
-        if control_loop is not None:
-            # The active mode is the guidance+control stage of the loop: after the estimator,
-            # before the servo frame is written.
-            control_loop.add_stage("modes", self.vehicle.modes.update)  # type: ignore[attr-defined]
-            # DO_SET_SERVO / DO_SET_RELAY reach the servo frame (free outputs only, see
-            # companion.actuators.overrides): the servo map reads the vehicle's override table.
-            control_loop.servo_map.overrides_us = self.vehicle.servo_overrides_us  # type: ignore[attr-defined]
-        register_vehicle_commands(registry_of(ctx))
-        self.commands = CommandService(ctx, links, self.vehicle)
+        self.vehicle = vehicle
+        self.telemetry = telemetry
+        VehicleCommands(vehicle, ctx.params, ctx.clock, telemetry, links.system_id).register(commands)
+        self.commands = CommandService(ctx, links, self.vehicle, commands)
         self.params = ParamService(ctx, links, self.vehicle)
         self.missions = MissionService(ctx, links, self.vehicle)
         self.ftp = FtpService(links)
@@ -78,13 +69,11 @@ class MavlinkService(BaseService):
         register_manual_control(ctx, links)
         self._failsafe_gcs = False
         self._failsafe_engine = False
-        ctx.extras["mavlink"] = self
 
     async def start(self) -> None:
         ctx, vehicle = self.ctx, self.vehicle
         ctx.bus.topic("status_text", StatusText).add_listener(self._on_status_text)
-        ctx.bus.topic("nav", NavState).add_listener(self._on_nav)
-        vehicle.modes.start()
+        vehicle.start_modes()
         vehicle.status(identity.boot_banner())
         profile = "ArduRover-compatible modes" if vehicle.profile == "ardurover" else "generic autopilot"
         vehicle.status(f"MAVLink profile {vehicle.profile}: {profile}")
@@ -125,7 +114,7 @@ class MavlinkService(BaseService):
             for msg_id in link.rates.due(now_s):
                 if msg_id not in cache:
                     try:
-                        cache[msg_id] = telemetry.build(self.ctx, self.vehicle, msg_id)
+                        cache[msg_id] = self.telemetry.build(msg_id)
                     except Exception:
                         log.exception("building message %d failed", msg_id)
                         cache[msg_id] = None
@@ -141,10 +130,6 @@ class MavlinkService(BaseService):
             self.links.broadcast(mav.MAVLink_statustext_message(max(0, min(7, status.severity)), chunk,
                                                                 msg_id, index))
 
-    def _on_nav(self, nav: NavState) -> None:
-        if self.drive_modes_from_nav:
-            self.vehicle.modes.update(nav)
-
     # -- messages besides commands ----------------------------------------------------------
     def _on_request_data_stream(self, link: Link, msg: Any) -> None:
         rate = float(msg.req_message_rate)
@@ -159,19 +144,19 @@ class MavlinkService(BaseService):
         else:
             reason = self.vehicle.set_mode(int(msg.custom_mode))
             result = mav.MAV_RESULT_ACCEPTED if reason is None else mav.MAV_RESULT_DENIED
-        self.commands.send_ack(link, 11, result, src)
+        self.commands.send_ack(link, mav.MAVLINK_MSG_ID_SET_MODE, result, src)
         if reason:
-            self.vehicle.status(f"Mode change failed: {reason}", SEVERITY_WARNING)
+            self.vehicle.status(f"Mode change failed: {reason}", Severity.WARNING)
 
     def _on_position_target(self, link: Link, msg: Any) -> None:
         """SET_POSITION_TARGET_GLOBAL_INT: a new GUIDED target (ignored outside GUIDED)."""
-        if self.vehicle.modes.current.number != MODE_GUIDED:
+        if self.vehicle.modes.current.number != ModeNumber.GUIDED:
             return
         if msg.type_mask & mav.POSITION_TARGET_TYPEMASK_X_IGNORE:
             return  # velocity-only targets are not supported on this boat
         lat_deg, lon_deg = msg.lat_int / 1e7, msg.lon_int / 1e7
         if not (-90 <= lat_deg <= 90 and -180 <= lon_deg <= 180) or (lat_deg == 0 and lon_deg == 0):
-            self.vehicle.status("Position target refused: invalid position", SEVERITY_WARNING)
+            self.vehicle.status("Position target refused: invalid position", Severity.WARNING)
             return
         speed = None
         if not msg.type_mask & mav.POSITION_TARGET_TYPEMASK_VX_IGNORE:
@@ -204,27 +189,21 @@ class MavlinkService(BaseService):
         if lost and enable and vehicle.armed and not self._failsafe_gcs:
             self._failsafe_gcs = True
             vehicle.failsafe_reason = "gcs"
-            continue_auto = enable == 2 and vehicle.modes.current.number == 10
-            vehicle.status(f"GCS failsafe: no heartbeat for {age_s:.0f} s", SEVERITY_CRITICAL)
+            continue_auto = enable == FS_GCS_CONTINUE_AUTO and vehicle.modes.current.number == ModeNumber.AUTO
+            vehicle.status(f"GCS failsafe: no heartbeat for {age_s:.0f} s", Severity.CRITICAL)
             action = params.get_int("FS_ACTION")
-            if not continue_auto and action in (1, 2):
-                target = 11 if action == 1 else 4
+            if not continue_auto and action in (FS_ACTION_RTL, FS_ACTION_HOLD):
+                target = ModeNumber.RTL if action == FS_ACTION_RTL else ModeNumber.HOLD
                 reason = vehicle.set_mode(target)
-                if reason and target == 11:
-                    vehicle.set_mode(4)
+                if reason and target == ModeNumber.RTL:
+                    vehicle.set_mode(ModeNumber.HOLD)
         elif not lost and self._failsafe_gcs:
             self._failsafe_gcs = False
             vehicle.failsafe_reason = None
-            vehicle.status("GCS failsafe cleared", SEVERITY_INFO)
+            vehicle.status("GCS failsafe cleared", Severity.INFO)
         stop_s = params.get("USV_FS_ENG_STOP")
         if stop_s > 0 and age_s > stop_s and vehicle.armed and not self._failsafe_engine:
             self._failsafe_engine = True
             vehicle.disarm(reason=f"engine stop, no ground station for {stop_s:.0f} s")
         elif age_s <= stop_s:
             self._failsafe_engine = False
-
-
-def build_mavlink_services(ctx: Context) -> list[Service]:
-    """The link service and the MAVLink vehicle service, in start-up order."""
-    links = LinkManager(ctx)
-    return [links, MavlinkService(ctx, links)]

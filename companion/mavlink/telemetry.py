@@ -1,9 +1,10 @@
 """Telemetry builders: bus topics and vehicle state -> MAVLink messages.
 
 One function per streamed message, each returning a message object or ``None`` when it has
-nothing honest to say (no navigation solution yet, no guidance target).  The stream
-scheduler builds a message at most once per tick and packs it per link.  Other subsystems
-add their status messages with :func:`register_stream_builder` (payload status messages).
+nothing honest to say (no navigation solution yet, no guidance target).  :class:`Telemetry` is
+one vehicle's set: these builders plus the status messages its payloads declare
+(:mod:`companion.payloads.registry`).  The stream scheduler builds a message at most once per
+tick and packs it per link.
 
 Health bits in SYS_STATUS are honest: a sensor is *present* once its topic has published,
 *healthy* while its data is fresh and valid.  The GPS-INS unit provides attitude, rates and
@@ -13,14 +14,22 @@ position, so the gyro/accel/mag/AHRS bits follow its attitude solution.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 from companion.app import Context
 from companion.link import streams as s
 from companion.link.dialect import boat_module, mav
 from companion.mavlink import identity
-from companion.messages import ActuatorCommand, FixType, ModelError, NavState, RcInput, ServoOutputs
+from companion.messages import (
+    ActuatorCommand,
+    FixType,
+    ModelError,
+    ModeNumber,
+    NavState,
+    RcInput,
+    ServoOutputs,
+)
 from companion.vehicle import Vehicle
 
 FRESH_S = 1.0
@@ -206,7 +215,7 @@ def position_target_global_int(ctx: Context, vehicle: Vehicle) -> Any:
 
 
 def mission_current(ctx: Context, vehicle: Vehicle) -> Any:
-    mission_mode = 1 if vehicle.modes.current.number == 10 else 0
+    mission_mode = 1 if vehicle.modes.current.number == ModeNumber.AUTO else 0
     return mav.MAVLink_mission_current_message(vehicle.current_seq, vehicle.mission_total,
                                                int(vehicle.mission_state), mission_mode)
 
@@ -252,14 +261,27 @@ BUILDERS: dict[int, Builder] = {
 """Message id -> builder for streamed and requested messages."""
 
 
-def register_stream_builder(msg_id: int, builder: Builder, default_rate_hz: float | None = None) -> None:
-    """Add (or replace) the builder of a message; ``default_rate_hz`` sets its default stream rate."""
-    BUILDERS[int(msg_id)] = builder
-    if default_rate_hz is not None:
-        s.DEFAULT_RATES_HZ[int(msg_id)] = float(default_rate_hz)
+StatusBuilder = Callable[[int], Any]
+"""A payload's status message from ``time_boot_ms``."""
 
 
-def build(ctx: Context, vehicle: Vehicle, msg_id: int) -> Any:
-    """The current value of message ``msg_id`` (``None``: unknown id or nothing to report)."""
-    builder = BUILDERS.get(int(msg_id))
-    return None if builder is None else builder(ctx, vehicle)
+class Telemetry:
+    """The messages one vehicle streams or sends on request (REQUEST_MESSAGE)."""
+
+    def __init__(self, ctx: Context, vehicle: Vehicle,
+                 extra: Mapping[int, StatusBuilder] | None = None) -> None:
+        self.ctx = ctx
+        self.vehicle = vehicle
+        self.extra = dict(extra or {})
+
+    def known(self, msg_id: int) -> bool:
+        """Whether this vehicle can build message ``msg_id``."""
+        return int(msg_id) in BUILDERS or int(msg_id) in self.extra
+
+    def build(self, msg_id: int) -> Any:
+        """The current value of message ``msg_id`` (``None``: unknown id or nothing to report)."""
+        builder = BUILDERS.get(int(msg_id))
+        if builder is not None:
+            return builder(self.ctx, self.vehicle)
+        status = self.extra.get(int(msg_id))
+        return None if status is None else status(time_boot_ms(self.ctx, self.vehicle))

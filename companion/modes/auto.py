@@ -20,9 +20,10 @@ from typing import TYPE_CHECKING, Any
 
 from companion.control.target import ControlTarget
 from companion.guidance.geo import wrap_pi
-from companion.messages import NavState
+from companion.messages import ActuatorCommand, ModeNumber, NavState, Severity
 from companion.mission import items as mi
-from companion.modes.base import STANDARD_MODE_MISSION
+from companion.modes.base import StandardMode
+from companion.modes.host import ModeHost
 from companion.modes.navigation import (
     CircleTask,
     GotoTask,
@@ -35,7 +36,6 @@ from companion.modes.navigation import (
 if TYPE_CHECKING:
     from companion.mission.items import MissionItem
     from companion.payloads.registry import Payloads
-    from companion.vehicle import Vehicle
 
 log = logging.getLogger(__name__)
 
@@ -51,13 +51,12 @@ NAV_COMMANDS = frozenset({mi.CMD_NAV_WAYPOINT, mi.CMD_NAV_LOITER_UNLIM, mi.CMD_N
                           mi.CMD_NAV_LOITER_TURNS, mi.CMD_NAV_RETURN_TO_LAUNCH, mi.CMD_NAV_DELAY,
                           CMD_NAV_LAUNCH_AT, CMD_NAV_SAMPLE_HERE})
 POSITION_COMMANDS = NAV_COMMANDS - {mi.CMD_NAV_RETURN_TO_LAUNCH, mi.CMD_NAV_DELAY}
-HOLD_MODE, LOITER_MODE = 4, 5
 
 
 class AutoMode(NavMode):
-    number = 10
+    number = ModeNumber.AUTO
     name = "AUTO"
-    standard_mode = STANDARD_MODE_MISSION
+    standard_mode = StandardMode.MISSION
     description = "Auto: run the uploaded mission (waypoints, loiters, delays, speed, RTL, sampling, launch)."
 
     def __init__(self) -> None:
@@ -74,92 +73,93 @@ class AutoMode(NavMode):
         self._launch_steer: _HeadingTask | None = None
 
     # -- mode interface ------------------------------------------------------------------
-    def requirements(self, vehicle: Vehicle) -> str | None:
-        items = [i for i in vehicle.mission_items() if i.seq >= vehicle.first_mission_seq]
+    def requirements(self, host: ModeHost) -> str | None:
+        items = [i for i in host.mission.items() if i.seq >= host.mission.first_seq]
         if not items:
             return "no mission uploaded"
         if not any(i.command in NAV_COMMANDS for i in items):
             return "mission has no navigation item"
-        return super().requirements(vehicle)
+        return super().requirements(host)
 
-    def enter(self, vehicle: Vehicle) -> None:
-        super().enter(vehicle)
-        vehicle.start_mission()
-        self.speed_override = vehicle.speed_override_mps
+    def enter(self, host: ModeHost) -> None:
+        super().enter(host)
+        host.mission.start()
+        self.speed_override = host.speed_override_mps
         self._jumps_done = {}
         self.task = None  # no crab estimate carried in from an earlier AUTO run
-        nav = vehicle.nav()
+        nav = host.nav()
         assert nav is not None
         self._last_point = (nav.lat_deg, nav.lon_deg)
-        self._start(vehicle, nav, vehicle.current_seq)
+        self._start(host, nav, host.mission.current_seq)
 
-    def exit(self, vehicle: Vehicle) -> None:
-        super().exit(vehicle)
+    def exit(self, host: ModeHost) -> None:
+        super().exit(host)
         if self._fire is not None and not self._fire.done():
             self._fire.cancel()
         self.seq = -1
 
-    def update(self, vehicle: Vehicle, nav: NavState) -> None:
-        if vehicle.current_seq != self.seq:  # the operator jumped (MISSION_SET_CURRENT)
-            self._start(vehicle, nav, vehicle.current_seq)
+    def update(self, host: ModeHost, nav: NavState) -> ActuatorCommand | None:
+        if host.mission.current_seq != self.seq:  # the operator jumped (MISSION_SET_CURRENT)
+            self._start(host, nav, host.mission.current_seq)
         if self.seq < 0:
-            return
-        item = self._item(vehicle, self.seq)
+            return None
+        item = self._item(host, self.seq)
         if item is None:
-            self._finish(vehicle)
-            return
-        if self._run(vehicle, nav, item):
+            self._finish(host)
+            return None
+        if self._run(host, nav, item):
             if item.command in NAV_COMMANDS:
-                vehicle.report_reached(item.seq)
+                host.mission.report_reached(item.seq)
                 if item.command in POSITION_COMMANDS:
                     self._last_point = (item.lat_deg, item.lon_deg)
-            self._advance(vehicle, nav, self.seq + 1)
+            self._advance(host, nav, self.seq + 1)
         elif self.task is not None:
-            self.run_task(vehicle, nav, self.task)
+            return self.run_task(host, nav, self.task)
+        return None
 
     # -- item sequencing -----------------------------------------------------------------
-    def _item(self, vehicle: Vehicle, seq: int) -> MissionItem | None:
-        return next((i for i in vehicle.mission_items() if i.seq == seq), None)
+    def _item(self, host: ModeHost, seq: int) -> MissionItem | None:
+        return next((i for i in host.mission.items() if i.seq == seq), None)
 
-    def _advance(self, vehicle: Vehicle, nav: NavState, seq: int) -> None:
-        if self._item(vehicle, seq) is None:
-            self._finish(vehicle)
+    def _advance(self, host: ModeHost, nav: NavState, seq: int) -> None:
+        if self._item(host, seq) is None:
+            self._finish(host)
             return
-        vehicle.set_current(seq)
-        self._start(vehicle, nav, seq)
+        host.mission.set_current(seq)
+        self._start(host, nav, seq)
 
-    def _finish(self, vehicle: Vehicle) -> None:
+    def _finish(self, host: ModeHost) -> None:
         self.seq = -1
-        vehicle.mission_complete()
-        behave = int(param(vehicle.ctx.params, "MIS_DONE_BEHAVE"))
-        reason = vehicle.set_mode(LOITER_MODE if behave == 1 else HOLD_MODE)
+        host.mission_complete()
+        behave = int(param(host.params, "MIS_DONE_BEHAVE"))
+        reason = host.set_mode(ModeNumber.LOITER if behave == 1 else ModeNumber.HOLD)
         if reason:
-            vehicle.status(f"AUTO: mission done, {reason}", 4)
+            host.status(f"AUTO: mission done, {reason}", Severity.WARNING)
 
-    def _start(self, vehicle: Vehicle, nav: NavState, seq: int) -> None:
+    def _start(self, host: ModeHost, nav: NavState, seq: int) -> None:
         """Begin item ``seq``: immediate items run at once and the next one starts."""
         for _ in range(64):  # bounded: a DO_JUMP loop of immediate items cannot hang the loop
             self.seq = seq
-            item = self._item(vehicle, seq)
+            item = self._item(host, seq)
             if item is None:
-                self._finish(vehicle)
+                self._finish(host)
                 return
             self.phase, self._since_s, self._job, self._fire = "start", nav.t_s, None, None
             if item.command in NAV_COMMANDS:
-                self._begin_nav(vehicle, nav, item)
+                self._begin_nav(host, nav, item)
                 return
-            nxt = self._immediate(vehicle, item)
+            nxt = self._immediate(host, item)
             if nxt is None:  # a condition that waits (CONDITION_DELAY)
                 return
-            if self._item(vehicle, nxt) is None:
-                self._finish(vehicle)
+            if self._item(host, nxt) is None:
+                self._finish(host)
                 return
-            vehicle.set_current(nxt)
+            host.mission.set_current(nxt)
             seq = nxt
-        vehicle.status("AUTO: too many jumps without a navigation item; stopping", 3)
-        self._finish(vehicle)
+        host.status("AUTO: too many jumps without a navigation item; stopping", Severity.ERROR)
+        self._finish(host)
 
-    def _immediate(self, vehicle: Vehicle, item: MissionItem) -> int | None:
+    def _immediate(self, host: ModeHost, item: MissionItem) -> int | None:
         """Run a DO/condition item; the next sequence number, or None to wait on it."""
         c = item.command
         if c == mi.CMD_DO_CHANGE_SPEED:
@@ -172,32 +172,32 @@ class AutoMode(NavMode):
                 self._jumps_done[item.seq] = done + 1
                 return int(item.param1)
         elif c == mi.CMD_DO_SET_HOME:
-            nav = vehicle.nav()
+            nav = host.nav()
             if item.param1 == 1 and nav is not None:
-                vehicle.set_home(nav.lat_deg, nav.lon_deg)
+                host.set_home(nav.lat_deg, nav.lon_deg)
             elif item.is_global:
-                vehicle.set_home(item.lat_deg, item.lon_deg)
+                host.set_home(item.lat_deg, item.lon_deg)
         elif c == mi.CMD_DO_SET_SERVO:
-            vehicle.servo_overrides_us[int(item.param1)] = int(item.param2)
+            host.set_servo_override(int(item.param1), int(item.param2))
         elif c == mi.CMD_DO_SET_RELAY:
-            vehicle.relays[int(item.param1)] = bool(item.param2)
+            host.set_relay_state(int(item.param1), bool(item.param2))
         elif c == mi.CMD_CONDITION_DELAY:
             self.phase = "delay"
             return None
         else:
-            vehicle.status(f"AUTO: item {item.seq} command {c} not supported; skipped", 4)
+            host.status(f"AUTO: item {item.seq} command {c} not supported; skipped", Severity.WARNING)
         return item.seq + 1
 
-    def _next_point(self, vehicle: Vehicle, seq: int) -> tuple[float, float] | None:
-        nxt = self._item(vehicle, seq + 1)
+    def _next_point(self, host: ModeHost, seq: int) -> tuple[float, float] | None:
+        nxt = self._item(host, seq + 1)
         while nxt is not None and nxt.command not in NAV_COMMANDS:
-            nxt = self._item(vehicle, nxt.seq + 1)
+            nxt = self._item(host, nxt.seq + 1)
         if nxt is None or nxt.command != mi.CMD_NAV_WAYPOINT:
             return None
         return (nxt.lat_deg, nxt.lon_deg)
 
-    def _begin_nav(self, vehicle: Vehicle, nav: NavState, item: MissionItem) -> None:
-        params = vehicle.ctx.params
+    def _begin_nav(self, host: ModeHost, nav: NavState, item: MissionItem) -> None:
+        params = host.params
         here = (nav.lat_deg, nav.lon_deg)
         speed = wp_speed_mps(params, self.speed_override)
         c = item.command
@@ -205,23 +205,23 @@ class AutoMode(NavMode):
             self.task, self.phase = StationTask(params, here, nav.heading_rad), "delay"
             return
         if c == mi.CMD_NAV_RETURN_TO_LAUNCH:
-            if vehicle.home is None:
-                vehicle.status("AUTO: no home for RETURN_TO_LAUNCH; keeping station", 4)
+            if host.home is None:
+                host.status("AUTO: no home for RETURN_TO_LAUNCH; keeping station", Severity.WARNING)
                 self.task, self.phase = StationTask(params, here, nav.heading_rad), "hold"
                 return
-            target = (vehicle.home.lat_deg, vehicle.home.lon_deg)
+            target = (host.home.lat_deg, host.home.lon_deg)
         else:
             target = (item.lat_deg, item.lon_deg)
         start = self._last_point or here
         if math.dist(start, here) * 111_000 > 50.0:  # knocked far off the old leg: start from here
             start = here
         accept = item.param2 if c == mi.CMD_NAV_WAYPOINT and item.param2 > 0 else None
-        nxt = self._next_point(vehicle, item.seq) if c == mi.CMD_NAV_WAYPOINT and item.param1 <= 0 else None
+        nxt = self._next_point(host, item.seq) if c == mi.CMD_NAV_WAYPOINT and item.param1 <= 0 else None
         carried = self.task.follower if isinstance(self.task, GotoTask) else None  # last leg's crab estimate
         self.task = GotoTask(params, start, target, speed, accept, nxt, follower=carried)
         self.phase = "goto"
 
-    def _run(self, vehicle: Vehicle, nav: NavState, item: MissionItem) -> bool:
+    def _run(self, host: ModeHost, nav: NavState, item: MissionItem) -> bool:
         """Advance the current item's state machine; True when the item is done."""
         c, t = item.command, nav.t_s
         if self.phase == "delay":
@@ -230,7 +230,7 @@ class AutoMode(NavMode):
             assert isinstance(self.task, GotoTask)
             # circles take over 15 m out (the circle law approaches by itself); the rest on arrival
             arrived = self.task.distance_m <= 15.0 if self._circles(item) else self.task.reached
-            return self._arrived(vehicle, nav, item) if arrived else False
+            return self._arrived(host, nav, item) if arrived else False
         if self.phase == "loiter":
             if c == mi.CMD_NAV_LOITER_UNLIM:
                 return False
@@ -241,9 +241,9 @@ class AutoMode(NavMode):
             hold = item.param1
             return t - self._since_s >= hold
         if self.phase == "sample":
-            return self._sample(vehicle, nav, item)
+            return self._sample(host, nav, item)
         if self.phase == "launch":
-            return self._launch(vehicle, nav, item)
+            return self._launch(host, nav, item)
         return True
 
     @staticmethod
@@ -251,8 +251,8 @@ class AutoMode(NavMode):
         loiters = (mi.CMD_NAV_LOITER_UNLIM, mi.CMD_NAV_LOITER_TIME, mi.CMD_NAV_LOITER_TURNS)
         return item.command == CMD_NAV_SAMPLE_HERE or (item.command in loiters and abs(item.param3) > 0)
 
-    def _arrived(self, vehicle: Vehicle, nav: NavState, item: MissionItem) -> bool:
-        params = vehicle.ctx.params
+    def _arrived(self, host: ModeHost, nav: NavState, item: MissionItem) -> bool:
+        params = host.params
         c, point = item.command, (item.lat_deg, item.lon_deg)
         self._since_s = nav.t_s
         if c == mi.CMD_NAV_WAYPOINT:
@@ -283,16 +283,16 @@ class AutoMode(NavMode):
             return False
         return True
 
-    def _sample(self, vehicle: Vehicle, nav: NavState, item: MissionItem) -> bool:
+    def _sample(self, host: ModeHost, nav: NavState, item: MissionItem) -> bool:
         task = self.task
         assert isinstance(task, CircleTask)
         if self._job is None:
             if task.on_circle_since_s is None:
                 return False
-            payloads = _payloads(vehicle, "no water sampler; sample item skipped")
+            payloads = _payloads(host, "no water sampler; sample item skipped")
             if payloads is None:
                 return True
-            accept = vehicle.ctx.params.get_or("USV_SMPL_ACC_M", task.radius_m + 0.5)
+            accept = host.params.get_or("USV_SMPL_ACC_M", task.radius_m + 0.5)
             job = payloads.start_sample(
                 bottle=int(item.param1) if math.isfinite(item.param1) else 0,
                 fill_s=item.param3 if item.param3 > 0 else None,
@@ -304,7 +304,7 @@ class AutoMode(NavMode):
             self._job = job
         return bool(self._job.done.done())
 
-    def _launch(self, vehicle: Vehicle, nav: NavState, item: MissionItem) -> bool:
+    def _launch(self, host: ModeHost, nav: NavState, item: MissionItem) -> bool:
         """Bow on the bearing, slowed to steerage way, hold, fire.
 
         A water jet cannot reverse and needs thrust to steer, so "stop" means the slowest
@@ -315,7 +315,7 @@ class AutoMode(NavMode):
         if self._fire is not None:
             return self._fire.done()
         err = abs(wrap_pi(self._launch_bearing - nav.heading_rad))
-        hold = item.param2 if item.param2 > 0 else vehicle.ctx.params.get_or("USV_LNCH_HOLD_S", 3.0)
+        hold = item.param2 if item.param2 > 0 else host.params.get_or("USV_LNCH_HOLD_S", 3.0)
         station = self._launch_steer.inner if self._launch_steer is not None else None
         if station is not None and station.distance_m > LAUNCH_MAX_DIST_M:
             self._since_s = nav.t_s  # carried off the point while turning: station-keep back to it
@@ -328,7 +328,7 @@ class AutoMode(NavMode):
             return False
         if nav.t_s - self._since_s < hold:
             return False
-        payloads = _payloads(vehicle, "no rope launcher; launch item skipped")
+        payloads = _payloads(host, "no rope launcher; launch item skipped")
         if payloads is None:
             return True
         self._fire = asyncio.get_running_loop().create_task(payloads.mission_fire(item.seq))
@@ -352,12 +352,8 @@ class _HeadingTask:
         return ControlTarget(self.heading_rad, self.speed_mps, is_heading=True)
 
 
-def _payloads(vehicle: Vehicle, missing: str) -> Payloads | None:
-    """The vehicle's payload registry, or None after telling the operator ``AUTO: <missing>``."""
-    from companion.payloads.registry import payloads_of
-
-    try:
-        return payloads_of(vehicle.ctx)
-    except LookupError:
-        vehicle.status(f"AUTO: {missing}", 4)
-        return None
+def _payloads(host: ModeHost, missing: str) -> Payloads | None:
+    """The vehicle's payloads, or None after telling the operator ``AUTO: <missing>``."""
+    if host.payloads is None:
+        host.status(f"AUTO: {missing}", Severity.WARNING)
+    return host.payloads

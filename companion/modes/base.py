@@ -1,34 +1,38 @@
 """The mode interface every vehicle mode implements (ArduPilot Rover's ``Mode`` shape).
 
-A mode is a small object with ``enter``/``update``/``exit``: it turns the navigation
-solution into targets (a :class:`~companion.messages.Setpoint` or an
-:class:`~companion.messages.ActuatorCommand` on the bus) and never talks MAVLink itself.
+A mode is a small object with ``enter``/``update``/``exit`` run against a
+:class:`~companion.modes.host.ModeHost` (what it may read and request): ``update`` turns the
+navigation solution into a target, runs it through the host's control system and RETURNS the
+:class:`~companion.messages.ActuatorCommand` (``None``: no new command this sample).  A mode
+never talks MAVLink and never writes outputs itself.
 The MAVLink face of modes (heartbeat custom_mode, DO_SET_MODE, AVAILABLE_MODES,
 CURRENT_MODE, POSITION_TARGET_GLOBAL_INT, NAV_CONTROLLER_OUTPUT) lives in
 :mod:`companion.mavlink` and reads only the attributes defined here.
 
-Numbers are ArduPilot Rover's custom-mode numbers (MANUAL 0, ACRO 1, STEERING 3, HOLD 4,
-LOITER 5, AUTO 10, RTL 11, SMART_RTL 12, GUIDED 15) so that QGroundControl, MAVProxy and
-MAVSDK decode them; a mode Rover lacks takes a number Rover does not use (>= 20).
+Numbers are ArduPilot Rover's custom-mode numbers (:class:`~companion.messages.ModeNumber`:
+MANUAL 0, HOLD 4, LOITER 5, AUTO 10, RTL 11, GUIDED 15) so that QGroundControl, MAVProxy and
+MAVSDK decode them; a mode Rover lacks takes a number Rover does not use (CRUISE 20).
 """
 
 from __future__ import annotations
 
+import enum
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, ClassVar
+from typing import ClassVar
 
-from companion.messages import NavState
+from companion.messages import ActuatorCommand, NavState
+from companion.modes.host import ModeHost
 
-if TYPE_CHECKING:
-    from companion.vehicle import Vehicle
 
-# MAV_STANDARD_MODE values (MAVLink common.xml), repeated here so modes need no pymavlink import.
-STANDARD_MODE_NON_STANDARD = 0
-STANDARD_MODE_POSITION_HOLD = 1
-STANDARD_MODE_ORBIT = 2
-STANDARD_MODE_CRUISE = 3
-STANDARD_MODE_SAFE_RECOVERY = 5
-STANDARD_MODE_MISSION = 6
+class StandardMode(enum.IntEnum):
+    """MAV_STANDARD_MODE values (MAVLink common.xml), repeated here so modes need no pymavlink."""
+
+    NON_STANDARD = 0
+    POSITION_HOLD = 1
+    ORBIT = 2
+    CRUISE = 3
+    SAFE_RECOVERY = 5
+    MISSION = 6
 
 
 @dataclass(frozen=True, slots=True)
@@ -70,7 +74,7 @@ class Mode:
 
     number: ClassVar[int] = -1
     name: ClassVar[str] = "UNDEFINED"
-    standard_mode: ClassVar[int | None] = None
+    standard_mode: ClassVar[StandardMode | None] = None
     description: ClassVar[str] = ""
     autonomous: ClassVar[bool] = False
     guided: ClassVar[bool] = False
@@ -80,19 +84,20 @@ class Mode:
     def __init__(self) -> None:
         self.nav_target: NavTarget | None = None
 
-    def requirements(self, vehicle: Vehicle) -> str | None:
+    def requirements(self, host: ModeHost) -> str | None:
         """Why this mode cannot be entered now (shown to the operator), or ``None`` if it can."""
         return None
 
-    def enter(self, vehicle: Vehicle) -> None:
+    def enter(self, host: ModeHost) -> None:
         """Called once when the mode becomes active (after :meth:`requirements` passed)."""
         return None
 
-    def update(self, vehicle: Vehicle, nav: NavState) -> None:
-        """Called by the control loop on every navigation sample (100 Hz) while active."""
+    def update(self, host: ModeHost, nav: NavState) -> ActuatorCommand | None:
+        """Called by the pipeline on every navigation sample (100 Hz) while active; the
+        actuator command, or ``None`` to keep the last one."""
         return None
 
-    def exit(self, vehicle: Vehicle) -> None:
+    def exit(self, host: ModeHost) -> None:
         """Called once when another mode takes over."""
         self.nav_target = None
 
@@ -100,9 +105,9 @@ class Mode:
         return f"<{type(self).__name__} {self.name} ({self.number})>"
 
 
-def requires_position(vehicle: Vehicle) -> str | None:
+def requires_position(host: ModeHost) -> str | None:
     """Shared requirement: a valid position estimate (navigating modes use it)."""
-    nav = vehicle.nav()
+    nav = host.nav()
     if nav is None or not nav.position_valid:
         return "no position estimate"
     return None

@@ -5,29 +5,25 @@ ArduPilot Rover has no course-hold mode (issue 12251).  Number 20 is outside Rov
 AVAILABLE_MODES with MAV_STANDARD_MODE_CRUISE.  The pilot's steering (MAVLink MANUAL_CONTROL
 ``y`` from a ground station, else RC channel 1; :mod:`companion.control.manual_input`) turns the
 held heading at up to USV_TURN_MAX times the stick deflection; a DO_CHANGE_SPEED
-(``vehicle.speed_override_mps``) changes the held speed.  Stick centred: the boat holds its
+(the host's ``speed_override_mps``) changes the held speed.  Stick centred: the boat holds its
 heading (the bow stays where it was; it does not crab).
 """
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
-from companion.control.manual_input import pilot_input
 from companion.control.target import ControlTarget
-from companion.messages import NavState
-from companion.modes.base import STANDARD_MODE_CRUISE, requires_position
+from companion.messages import ActuatorCommand, ModeNumber, NavState
+from companion.modes.base import StandardMode, requires_position
+from companion.modes.host import ModeHost
 from companion.modes.navigation import NavMode
-
-if TYPE_CHECKING:
-    from companion.vehicle import Vehicle
 
 
 class CruiseMode(NavMode):
-    number = 20
+    number = ModeNumber.CRUISE
     name = "CRUISE"
-    standard_mode = STANDARD_MODE_CRUISE
+    standard_mode = StandardMode.CRUISE
     description = "Cruise: hold heading and speed of entry; sticks turn the heading and trim the speed."
 
     def __init__(self) -> None:
@@ -36,28 +32,27 @@ class CruiseMode(NavMode):
         self.speed_mps = 0.0
         self._override: float | None = None
 
-    def requirements(self, vehicle: Vehicle) -> str | None:
-        return requires_position(vehicle)
+    def requirements(self, host: ModeHost) -> str | None:
+        return requires_position(host)
 
-    def enter(self, vehicle: Vehicle) -> None:
-        super().enter(vehicle)
-        nav = vehicle.nav()
+    def enter(self, host: ModeHost) -> None:
+        super().enter(host)
+        nav = host.nav()
         assert nav is not None
         self.heading_rad = nav.heading_rad
         self.speed_mps = max(0.0, nav.u_mps)
-        self._override = vehicle.speed_override_mps
+        self._override = host.speed_override_mps
         self.nav_target = None
 
-    def update(self, vehicle: Vehicle, nav: NavState) -> None:
+    def update(self, host: ModeHost, nav: NavState) -> ActuatorCommand:
         dt = self.dt(nav)
-        ctx = vehicle.ctx
-        inp = pilot_input(ctx.bus, ctx.clock.now_s(), ctx.params.get("USV_MAN_TIMEOUT"))
+        inp = host.pilot_input()
         if inp is not None:
-            turn_max = math.radians(ctx.params.get("USV_TURN_MAX"))
+            turn_max = math.radians(host.params.get("USV_TURN_MAX"))
             self.heading_rad = (self.heading_rad + inp.steering * turn_max * dt) % (2 * math.pi)
-        override = vehicle.speed_override_mps
+        override = host.speed_override_mps
         if override is not None and override != self._override and math.isfinite(override):
             self.speed_mps = max(0.0, override)
         self._override = override
         target = ControlTarget(self.heading_rad, self.speed_mps, is_heading=True)
-        self.control(vehicle).step(nav, target, ignition_on=vehicle.armed)
+        return host.control.step(nav, target, ignition_on=host.armed)

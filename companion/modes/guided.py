@@ -1,6 +1,6 @@
 """GUIDED (Rover 15): go where the ground station says (DO_REPOSITION, SET_POSITION_TARGET_GLOBAL_INT).
 
-The target is ``vehicle.guided_target`` (set by the MAVLink services).  The boat follows the leg
+The target is the host's ``guided_target`` (set by the MAVLink services).  The boat follows the leg
 from where it was when the target arrived to the target at WP_SPEED (or the target's speed),
 then keeps station on it; a target with a radius (DO_REPOSITION param3) is circled instead.
 Without a target the boat keeps station where GUIDED was entered.
@@ -8,17 +8,13 @@ Without a target the boat keeps station where GUIDED was entered.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
-from companion.messages import NavState
+from companion.messages import ActuatorCommand, GuidedTarget, ModeNumber, NavState
+from companion.modes.host import ModeHost
 from companion.modes.navigation import CircleTask, GotoTask, NavMode, StationTask, wp_speed_mps
-
-if TYPE_CHECKING:
-    from companion.vehicle import GuidedTarget, Vehicle
 
 
 class GuidedMode(NavMode):
-    number = 15
+    number = ModeNumber.GUIDED
     name = "GUIDED"
     standard_mode = None
     description = "Guided: go to the point the ground station sends, then keep station (or circle) there."
@@ -28,16 +24,16 @@ class GuidedMode(NavMode):
         super().__init__()
         self._target: GuidedTarget | None = None
 
-    def enter(self, vehicle: Vehicle) -> None:
-        super().enter(vehicle)
-        nav = vehicle.nav()
+    def enter(self, host: ModeHost) -> None:
+        super().enter(host)
+        nav = host.nav()
         assert nav is not None
         self._target = None
-        self.task = StationTask(vehicle.ctx.params, (nav.lat_deg, nav.lon_deg), nav.heading_rad)
+        self.task = StationTask(host.params, (nav.lat_deg, nav.lon_deg), nav.heading_rad)
 
-    def update(self, vehicle: Vehicle, nav: NavState) -> None:
-        params = vehicle.ctx.params
-        target = vehicle.guided_target
+    def update(self, host: ModeHost, nav: NavState) -> ActuatorCommand | None:
+        params = host.params
+        target = host.guided_target
         if target is not None and target is not self._target:
             self._target = target
             speed = wp_speed_mps(params, target.speed_mps)
@@ -50,4 +46,5 @@ class GuidedMode(NavMode):
             else:
                 self.task = StationTask(params, point, nav.heading_rad)
         if self.task is not None:
-            self.run_task(vehicle, nav, self.task)
+            return self.run_task(host, nav, self.task)
+        return None

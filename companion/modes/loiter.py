@@ -24,16 +24,12 @@ point actively, unlike ArduPilot Rover, which drifts to the edge of LOIT_RADIUS 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
-from companion.control.system import control_of
 from companion.guidance.geo import wrap_pi
-from companion.messages import NavState
-from companion.modes.base import STANDARD_MODE_POSITION_HOLD
+from companion.messages import ActuatorCommand, ModeNumber, NavState
+from companion.modes.base import StandardMode
+from companion.modes.host import ModeHost
 from companion.modes.navigation import CircleTask, NavMode, StationTask, param
-
-if TYPE_CHECKING:
-    from companion.vehicle import Vehicle
 
 IDLE_THROTTLE = 0.02
 ORBIT_AFTER_S = 3.0
@@ -43,9 +39,9 @@ ON_HEADING_RAD = math.radians(45.0)
 
 
 class LoiterMode(NavMode):
-    number = 5
+    number = ModeNumber.LOITER
     name = "LOITER"
-    standard_mode = STANDARD_MODE_POSITION_HOLD
+    standard_mode = StandardMode.POSITION_HOLD
     description = "Loiter: actively hold the entry point (bow into the current, or orbit it in slack water)."
 
     def __init__(self) -> None:
@@ -53,35 +49,36 @@ class LoiterMode(NavMode):
         self.point = (0.0, 0.0)
         self._evidence_s = 0.0
 
-    def enter(self, vehicle: Vehicle) -> None:
-        super().enter(vehicle)
-        nav = vehicle.nav()
+    def enter(self, host: ModeHost) -> None:
+        super().enter(host)
+        nav = host.nav()
         assert nav is not None  # requirements() checked the position estimate
         self.point = (nav.lat_deg, nav.lon_deg)
-        self.task = StationTask(vehicle.ctx.params, self.point, nav.heading_rad)
+        self.task = StationTask(host.params, self.point, nav.heading_rad)
         self._evidence_s = 0.0
 
-    def _orbit_radius_m(self, vehicle: Vehicle) -> float:
-        params = vehicle.ctx.params
+    def _orbit_radius_m(self, host: ModeHost) -> float:
+        params = host.params
         return max(params.get("USV_TURN_RAD"), param(params, "LOIT_RADIUS") - 0.5)
 
-    def update(self, vehicle: Vehicle, nav: NavState) -> None:
+    def update(self, host: ModeHost, nav: NavState) -> ActuatorCommand | None:
         dt = self.dt(nav)
         task = self.task
         if isinstance(task, StationTask):
             # the jet idles bow on its station heading and still makes headway: too weak a current
-            at_idle = control_of(vehicle.ctx).mapper.throttle <= IDLE_THROTTLE
+            at_idle = host.control.mapper.throttle <= IDLE_THROTTLE
             on_heading = abs(wrap_pi(nav.heading_rad - task.keeper.heading_rad)) < ON_HEADING_RAD
             creeping = at_idle and on_heading and nav.u_mps > CREEP_MPS
             if self._count(creeping, dt, ORBIT_AFTER_S):
-                self.task = CircleTask(vehicle.ctx.params, self.point, self._orbit_radius_m(vehicle))
+                self.task = CircleTask(host.params, self.point, self._orbit_radius_m(host))
         elif isinstance(task, CircleTask):
             # pushed off the circle by more than its radius: the current is too strong to orbit
             failing = task.on_circle_since_s is not None and abs(task.radial_error_m) > task.radius_m
             if self._count(failing, dt, STATION_AFTER_S):
-                self.task = StationTask(vehicle.ctx.params, self.point, nav.heading_rad)
+                self.task = StationTask(host.params, self.point, nav.heading_rad)
         if self.task is not None:
-            self.run_task(vehicle, nav, self.task, dt)
+            return self.run_task(host, nav, self.task, dt)
+        return None
 
     def _count(self, failing: bool, dt: float, after_s: float) -> bool:
         """Leaky evidence counter: True (and reset) after ``after_s`` of net failure."""

@@ -4,7 +4,8 @@
 ``companion/modes/``, one line here and one test.  :class:`ModeManager` owns one instance
 of each, checks a mode's requirements before entering it (refusals come back as a reason
 for the operator), runs ``exit``/``enter`` in order and calls the active mode's ``update``
-from the control loop.  A mode that raises in ``update`` is replaced by HOLD so the boat
+from the pipeline.  Modes run against a :class:`~companion.modes.host.ModeHost` given with
+each call (the vehicle).  A mode that raises in ``update`` is replaced by HOLD so the boat
 stops instead of running with a broken mode.
 """
 
@@ -12,20 +13,17 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from typing import TYPE_CHECKING
 
-from companion.messages import NavState
+from companion.messages import ActuatorCommand, ModeNumber, NavState, Severity
 from companion.modes.auto import AutoMode
 from companion.modes.base import Mode
 from companion.modes.cruise import CruiseMode
 from companion.modes.guided import GuidedMode
 from companion.modes.hold import HoldMode
+from companion.modes.host import ModeHost
 from companion.modes.loiter import LoiterMode
 from companion.modes.manual import ManualMode
 from companion.modes.rtl import RtlMode
-
-if TYPE_CHECKING:
-    from companion.vehicle import Vehicle
 
 log = logging.getLogger(__name__)
 
@@ -40,10 +38,10 @@ MODE_CLASSES: list[type[Mode]] = [
 ]
 """Every mode of the vehicle (one line per mode)."""
 
-INITIAL_MODE_NUMBER = HoldMode.number
+INITIAL_MODE_NUMBER = ModeNumber.HOLD
 """The boat boots in HOLD: engine idle, nozzle centred (it drifts)."""
 
-FALLBACK_MODE_NUMBER = HoldMode.number
+FALLBACK_MODE_NUMBER = ModeNumber.HOLD
 """Where the manager goes when a mode fails."""
 
 ModeListener = Callable[[Mode, Mode], None]
@@ -52,8 +50,7 @@ ModeListener = Callable[[Mode, Mode], None]
 class ModeManager:
     """One instance of each registered mode and the currently active one."""
 
-    def __init__(self, vehicle: Vehicle, classes: list[type[Mode]] | None = None) -> None:
-        self.vehicle = vehicle
+    def __init__(self, classes: list[type[Mode]] | None = None) -> None:
         self._modes: dict[int, Mode] = {}
         for cls in classes if classes is not None else MODE_CLASSES:
             mode = cls()
@@ -65,18 +62,17 @@ class ModeManager:
         self._current = initial
         self._listeners: list[ModeListener] = []
         self._entered = False
-        self.intended_number = initial.number
 
     @property
     def current(self) -> Mode:
         """The active mode."""
         return self._current
 
-    def start(self) -> None:
+    def start(self, host: ModeHost) -> None:
         """Enter the initial mode (called once the vehicle is wired)."""
         if not self._entered:
             self._entered = True
-            self._current.enter(self.vehicle)
+            self._current.enter(host)
 
     def available(self) -> list[Mode]:
         """Every registered mode, ordered by number (AVAILABLE_MODES order)."""
@@ -96,7 +92,7 @@ class ModeManager:
         """``listener(old, new)`` runs after every successful mode change."""
         self._listeners.append(listener)
 
-    def set_mode(self, number: int) -> str | None:
+    def set_mode(self, number: int, host: ModeHost) -> str | None:
         """Switch to mode ``number``; ``None`` when accepted, otherwise the reason for refusal."""
         mode = self._modes.get(int(number)) if float(number).is_integer() else None
         if mode is None:
@@ -105,33 +101,32 @@ class ModeManager:
         if mode is self._current and self._entered:
             return None
         try:
-            reason = mode.requirements(self.vehicle)
+            reason = mode.requirements(host)
         except Exception as exc:
             log.exception("requirements() of %r failed", mode)
             reason = f"{mode.name} check failed: {exc}"
         if reason:
             return f"{mode.name}: {reason}"
-        return self._switch(mode)
+        return self._switch(mode, host)
 
-    def _switch(self, mode: Mode) -> str | None:
+    def _switch(self, mode: Mode, host: ModeHost) -> str | None:
         old = self._current
         if self._entered:
             try:
-                old.exit(self.vehicle)
+                old.exit(host)
             except Exception:
                 log.exception("exit() of %r failed", old)
         try:
-            mode.enter(self.vehicle)
+            mode.enter(host)
         except Exception as exc:
             log.exception("enter() of %r failed", mode)
             try:
-                old.enter(self.vehicle)
+                old.enter(host)
             except Exception:
                 log.exception("re-entering %r failed", old)
             return f"{mode.name}: could not start ({exc})"
         self._entered = True
         self._current = mode
-        self.intended_number = mode.number
         for listener in tuple(self._listeners):
             try:
                 listener(old, mode)
@@ -139,14 +134,16 @@ class ModeManager:
                 log.exception("mode listener failed")
         return None
 
-    def update(self, nav: NavState) -> None:
-        """Run the active mode for one navigation sample (called by the control loop)."""
+    def update(self, host: ModeHost, nav: NavState) -> ActuatorCommand | None:
+        """Run the active mode for one navigation sample (the pipeline's modes stage); its
+        actuator command, or ``None`` when it has none this sample (the last one stays)."""
         mode = self._current
         try:
-            mode.update(self.vehicle, nav)
+            return mode.update(host, nav)
         except Exception as exc:
             log.exception("update() of %r failed", mode)
             fallback = self._modes.get(FALLBACK_MODE_NUMBER)
             if fallback is not None and fallback is not mode:
-                self.vehicle.status(f"{mode.name} failed ({exc}); switching to {fallback.name}", 2)
-                self._switch(fallback)
+                host.status(f"{mode.name} failed ({exc}); switching to {fallback.name}", Severity.CRITICAL)
+                self._switch(fallback, host)
+            return None

@@ -12,19 +12,14 @@ source (ground station lost, RC receiver taking over) is announced with a STATUS
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
-from companion.control.manual_input import pilot_input
-from companion.control.system import control_of
-from companion.messages import NavState
+from companion.messages import ActuatorCommand, ModeNumber, NavState
 from companion.modes.base import Mode
-
-if TYPE_CHECKING:
-    from companion.vehicle import Vehicle
+from companion.modes.host import ModeHost
 
 
 class ManualMode(Mode):
-    number = 0
+    number = ModeNumber.MANUAL
     name = "MANUAL"
     standard_mode = None
     description = "Manual: RC or MANUAL_CONTROL input goes straight to nozzle and throttle."
@@ -34,22 +29,20 @@ class ManualMode(Mode):
         super().__init__()
         self._source: str | None = None
 
-    def enter(self, vehicle: Vehicle) -> None:
+    def enter(self, host: ModeHost) -> None:
         self._source = None
-        control_of(vehicle.ctx).reset()
+        host.control.reset()
 
-    def update(self, vehicle: Vehicle, nav: NavState) -> None:
-        ctx = vehicle.ctx
-        control = control_of(ctx)
-        inp = pilot_input(ctx.bus, ctx.clock.now_s(), ctx.params.get("USV_MAN_TIMEOUT"))
+    def update(self, host: ModeHost, nav: NavState) -> ActuatorCommand:
+        control = host.control
+        inp = host.pilot_input()
         source = None if inp is None else inp.source
         if source != self._source and self._source is not None:
             lost = "ground-station input lost" if self._source == "gcs" else "RC input lost"
             then = "RC receiver in control" if source == "rc" else "throttle idle, nozzle centred"
-            vehicle.status(f"MANUAL: {lost}; {then}" if source != "gcs" else "MANUAL: ground-station input")
+            host.status(f"MANUAL: {lost}; {then}" if source != "gcs" else "MANUAL: ground-station input")
         self._source = source
-        if inp is None or not vehicle.armed:
-            control.idle(nav, ignition_on=vehicle.armed)
-            return
-        nozzle_max = math.radians(ctx.params.get("USV_NOZ_MAX"))
-        control.direct(nav, inp.steering * nozzle_max, inp.throttle, ignition_on=True)
+        if inp is None or not host.armed:
+            return control.idle(nav, ignition_on=host.armed)
+        nozzle_max = math.radians(host.params.get("USV_NOZ_MAX"))
+        return control.direct(nav, inp.steering * nozzle_max, inp.throttle, ignition_on=True)

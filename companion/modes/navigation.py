@@ -3,7 +3,7 @@
 Navigation *tasks* are small stateful objects a mode runs one at a time: go to a point along a
 leg (:class:`GotoTask`, ILOS/ALOS), keep station on a point with the bow into the current
 (:class:`StationTask`), or circle a point (:class:`CircleTask`, GPS point tracking).  Each
-``step(nav)`` returns a :class:`~companion.control.target.ControlTarget` for the vehicle's
+``step(nav)`` returns a :class:`~companion.control.target.ControlTarget` for the host's
 :class:`~companion.control.system.ControlSystem`.  Positions are handled in a flat-earth frame
 anchored where the task starts (:mod:`companion.guidance.geo`).
 """
@@ -11,9 +11,8 @@ anchored where the task starts (:mod:`companion.guidance.geo`).
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Protocol
+from typing import Protocol
 
-from companion.control.system import ControlSystem, control_of
 from companion.control.target import ControlTarget
 from companion.guidance.circle import CircleTracker
 from companion.guidance.geo import LocalFrame, distance_bearing, wrap_pi
@@ -21,12 +20,10 @@ from companion.guidance.los import LosFollower, LosType
 from companion.guidance.params import circle_gains, leg_config, los_gains, station_gains
 from companion.guidance.station import StationKeeper
 from companion.guidance.waypoints import LegNavigator
-from companion.messages import NavState
+from companion.messages import ActuatorCommand, NavState
 from companion.modes.base import Mode, NavTarget, requires_position
-
-if TYPE_CHECKING:
-    from companion.params import ParamStore
-    from companion.vehicle import Vehicle
+from companion.modes.host import ModeHost
+from companion.params import ParamStore
 
 FALLBACK_VALUES = {"WP_SPEED": 5.0, "CRUISE_SPEED": 5.0, "WP_RADIUS": 2.0, "LOIT_RADIUS": 2.0,
                    "MIS_DONE_BEHAVE": 0.0}
@@ -156,26 +153,24 @@ class NavMode(Mode):
         self.task: Task | None = None
         self._last_t_s: float | None = None
 
-    def requirements(self, vehicle: Vehicle) -> str | None:
-        return requires_position(vehicle)
+    def requirements(self, host: ModeHost) -> str | None:
+        return requires_position(host)
 
-    def control(self, vehicle: Vehicle) -> ControlSystem:
-        return control_of(vehicle.ctx)
-
-    def enter(self, vehicle: Vehicle) -> None:
+    def enter(self, host: ModeHost) -> None:
         self._last_t_s = None
-        self.control(vehicle).reset()
+        host.control.reset()
 
     def dt(self, nav: NavState) -> float:
         dt = 0.01 if self._last_t_s is None else min(0.1, max(0.001, nav.t_s - self._last_t_s))
         self._last_t_s = nav.t_s
         return dt
 
-    def run_task(self, vehicle: Vehicle, nav: NavState, task: Task, dt_s: float | None = None) -> None:
-        """One step of ``task``: target -> control system -> actuators; telemetry target.
+    def run_task(self, host: ModeHost, nav: NavState, task: Task,
+                 dt_s: float | None = None) -> ActuatorCommand:
+        """One step of ``task``: target -> control system -> actuator command; telemetry target.
         ``dt_s``: this period's :meth:`dt` if the mode has already taken it."""
         target = task.step(nav, self.dt(nav) if dt_s is None else dt_s)
-        self.control(vehicle).step(nav, target, ignition_on=vehicle.armed)
+        command = host.control.step(nav, target, ignition_on=host.armed)
         point = task.point
         dist_m = task.distance_m if math.isfinite(task.distance_m) else 0.0
         north, east = task.frame.to_ne(*point)
@@ -186,3 +181,4 @@ class NavMode(Mode):
             target_bearing_rad=bearing, nav_bearing_rad=target.course_rad % (2 * math.pi),
             xtrack_error_m=task.cross_track_m,
             speed_error_mps=target.speed_mps - nav.u_mps)
+        return command

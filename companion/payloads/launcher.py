@@ -87,9 +87,7 @@ class RopeLauncher:
             self.make_safe("RC took control")
 
     def vehicle_armed(self) -> bool:
-        vehicle = self.ctx.extras.get("vehicle")
-        if vehicle is not None and hasattr(vehicle, "armed"):
-            return bool(vehicle.armed)
+        """The vehicle's arming state as it last published it (``vehicle_status``)."""
         status = self.ctx.bus.topic("vehicle_status", VehicleStatus).latest()
         return bool(status and status.armed)
 

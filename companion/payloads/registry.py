@@ -1,8 +1,7 @@
 """The payloads of one vehicle and the API other parts call (MAVLink commands, AUTO mission items).
 
-``payloads_of(ctx)`` returns the :class:`Payloads` created by
-:class:`~companion.payloads.service.PayloadService`.  The AUTO mode executes the dialect's
-mission items through it:
+:class:`Payloads` is created by :class:`~companion.payloads.service.PayloadService`.  The AUTO
+mode executes the dialect's mission items through it:
 
 * ``USV_CMD_NAV_SAMPLE_HERE`` (31001): once the boat circles inside the acceptance radius,
   ``job = payloads.start_sample(bottle, fill_s, volume_ml, mission_seq=seq, target=(lat, lon),
@@ -19,14 +18,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from companion.app import Context
-from companion.messages import StatusText
+from companion.messages import Severity, StatusText
 from companion.payloads.launcher import RopeLauncher
 from companion.payloads.samplelog import SampleLog
 from companion.payloads.sampler import SampleJob, SampleRequest, WaterSampler
 from companion.payloads.topics import PayloadOutputs
-
-SEVERITY_WARNING = 4
-SEVERITY_INFO = 6
 
 
 @dataclass
@@ -39,7 +35,7 @@ class Payloads:
     launcher: RopeLauncher
     sampler: WaterSampler
 
-    def announce(self, text: str, severity: int = SEVERITY_INFO) -> None:
+    def announce(self, text: str, severity: Severity = Severity.INFO) -> None:
         """A STATUSTEXT for the operator."""
         self.ctx.bus.topic("status_text", StatusText).publish(
             StatusText(t_s=self.ctx.clock.now_s(), severity=severity, text=text[:50])
@@ -67,7 +63,7 @@ class Payloads:
         )
         result = self.sampler.start(request)
         if isinstance(result, str):
-            self.announce(result, SEVERITY_WARNING)
+            self.announce(result, Severity.WARNING)
         else:
             self.announce(f"sampler: filling bottle {result.bottle}")
         return result
@@ -78,7 +74,7 @@ class Payloads:
         if reason is None:
             reason = await self.launcher.fire(mission_seq=mission_seq)
         if reason is not None:
-            self.announce(reason, SEVERITY_WARNING)
+            self.announce(reason, Severity.WARNING)
         else:
             self.announce_launch()
         return reason
@@ -86,12 +82,4 @@ class Payloads:
     def announce_launch(self) -> None:
         last = self.launcher.last_launch
         heading = f" hdg {last.heading_deg:.0f}" if last and last.heading_deg is not None else ""
-        self.announce(f"launcher: FIRED{heading}", SEVERITY_WARNING)
-
-
-def payloads_of(ctx: Context) -> Payloads:
-    """The payloads of this vehicle (created by PayloadService)."""
-    payloads = ctx.extras.get("payloads")
-    if not isinstance(payloads, Payloads):
-        raise LookupError("no payloads on this vehicle (PayloadService not started)")
-    return payloads
+        self.announce(f"launcher: FIRED{heading}", Severity.WARNING)

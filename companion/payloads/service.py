@@ -1,5 +1,5 @@
 """PayloadService: creates the launcher, sampler and sample log, registers their MAVLink
-commands and status messages, and keeps the outputs safe on shutdown."""
+commands, provides their status messages, and keeps the outputs safe on shutdown."""
 
 from __future__ import annotations
 
@@ -9,7 +9,9 @@ import math
 from typing import Any
 
 from companion.app import BaseService, Context
-from companion.payloads.commands import register_payload_commands
+from companion.mavlink.commands import CommandRegistry
+from companion.mavlink.telemetry import StatusBuilder
+from companion.payloads.commands import PayloadCommands
 from companion.payloads.launcher import RopeLauncher
 from companion.payloads.mission_checks import register_mission_checks
 from companion.payloads.registry import Payloads
@@ -69,34 +71,12 @@ def sampler_status_message(payloads: Payloads, time_boot_ms: int) -> Any:
     )
 
 
-def _register_streams(payloads: Payloads) -> None:
-    try:
-        from companion.mavlink import telemetry
-        from mavlink_dialect import usv
-    except ImportError:  # link layer absent: commands and log still work
-        return
-
-    def boot_ms(ctx: Context, vehicle: Any) -> int:
-        return int(telemetry.time_boot_ms(ctx, vehicle))
-
-    telemetry.register_stream_builder(
-        usv.MAVLINK_MSG_ID_USV_LAUNCHER_STATUS,
-        lambda ctx, v: launcher_status_message(ctx.extras["payloads"], boot_ms(ctx, v)),  # type: ignore[arg-type]
-        STATUS_RATE_HZ,
-    )
-    telemetry.register_stream_builder(
-        usv.MAVLINK_MSG_ID_USV_SAMPLER_STATUS,
-        lambda ctx, v: sampler_status_message(ctx.extras["payloads"], boot_ms(ctx, v)),  # type: ignore[arg-type]
-        STATUS_RATE_HZ,
-    )
-
-
 class PayloadService(BaseService):
-    """Owns the payloads of one vehicle (``ctx.extras["payloads"]``)."""
+    """Owns the payloads of one vehicle."""
 
     name = "payloads"
 
-    def __init__(self, ctx: Context) -> None:
+    def __init__(self, ctx: Context, commands: CommandRegistry) -> None:
         self.ctx = ctx
         outputs = PayloadOutputs(ctx.bus, ctx.clock)
         samplelog = SampleLog(ctx.config.state_dir() / SAMPLE_LOG_NAME)
@@ -107,10 +87,16 @@ class PayloadService(BaseService):
             launcher=RopeLauncher(ctx, outputs, samplelog),
             sampler=WaterSampler(ctx, outputs, samplelog),
         )
-        ctx.extras["payloads"] = self.payloads
-        register_payload_commands(ctx)
+        PayloadCommands(self.payloads, ctx.clock).register(commands)
         register_mission_checks()
-        _register_streams(self.payloads)
+
+    def status_builders(self) -> dict[int, StatusBuilder]:
+        """The payloads' status messages (USV_LAUNCHER_STATUS, USV_SAMPLER_STATUS) by message id."""
+        from mavlink_dialect import usv
+
+        payloads = self.payloads
+        return {usv.MAVLINK_MSG_ID_USV_LAUNCHER_STATUS: lambda ms: launcher_status_message(payloads, ms),
+                usv.MAVLINK_MSG_ID_USV_SAMPLER_STATUS: lambda ms: sampler_status_message(payloads, ms)}
 
     async def stop(self) -> None:
         job = self.payloads.sampler.active

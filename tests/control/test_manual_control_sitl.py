@@ -25,8 +25,7 @@ from companion.control.manual_input import (
     rc_throttle,
 )
 from companion.link.dialect import mav
-from companion.messages import NavState, RcInput
-from companion.vehicle import vehicle_of
+from companion.messages import ModeNumber, NavState, RcInput
 from sim_bridge.simboat import CH_NOZZLE, CH_THROTTLE
 from sim_bridge.sitl import SitlHarness
 from tests.mavlink.gcs import AsyncGcs
@@ -34,7 +33,7 @@ from tests.mavlink.sitl_gcs import run_until_done, sitl_with_gcs
 
 pytestmark = pytest.mark.integration
 
-MODE_MANUAL, MODE_CRUISE = 0, 20
+MODE_MANUAL, MODE_CRUISE = ModeNumber.MANUAL, ModeNumber.CRUISE
 
 
 class Joystick:
@@ -44,7 +43,7 @@ class Joystick:
         self.gcs, self.target = gcs, target
         self.on, self.y, self.z = True, 0, 0
         self._next_s = 0.0
-        h.loop.add_stage("test-joystick", self._stage)
+        h.ctx.bus.topic("nav", NavState).add_listener(self._stage)  # a joystick on simulated time
 
     def _stage(self, nav: NavState) -> None:
         if self.on and nav.t_s >= self._next_s:
@@ -64,7 +63,7 @@ async def test_manual_control_drives_manual_mode_and_goes_safe_when_the_gcs_goes
     async with sitl_with_gcs(seed=4, params={"FS_GCS_ENABLE": 0}) as (h, gcs):
         stick = Joystick(h, gcs)
         await h.run_for(1.0)
-        vehicle = vehicle_of(h.ctx)
+        vehicle = h.services.vehicle
         ack = await run_until_done(h, gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1))
         assert ack.result == mav.MAV_RESULT_ACCEPTED
         assert vehicle.set_mode(MODE_MANUAL) is None
@@ -105,7 +104,7 @@ async def test_manual_control_steers_the_held_heading_of_cruise() -> None:
     async with sitl_with_gcs(seed=5, psi0_deg=0.0, params={"FS_GCS_ENABLE": 0}) as (h, gcs):
         stick = Joystick(h, gcs)
         await h.run_for(1.0)
-        vehicle = vehicle_of(h.ctx)
+        vehicle = h.services.vehicle
         assert vehicle.arm() is None
         assert vehicle.set_mode(MODE_CRUISE) is None
         vehicle.speed_override_mps = 3.0

@@ -17,7 +17,7 @@ from companion.guidance.geo import LocalFrame, distance_to_segment_m
 from companion.mission import items as mi
 from companion.mission.items import MissionItem, MissionType
 from companion.mission.validate import validate_plan
-from companion.vehicle import MissionState, Vehicle, vehicle_of
+from companion.vehicle import MissionState, Vehicle
 from sim_bridge.sitl import SitlHarness
 
 HOME = (41.77, 123.43)
@@ -29,7 +29,7 @@ def _pos(h: SitlHarness) -> tuple[float, float]:
 
 async def _start(h: SitlHarness) -> Vehicle:
     await h.run_for(2.0)
-    vehicle = vehicle_of(h.ctx)
+    vehicle = h.services.vehicle
     assert vehicle.arm() is None
     return vehicle
 
@@ -98,7 +98,7 @@ async def test_guided_goes_to_the_target_and_stays_there() -> None:
     off the point here."""
     async with SitlHarness(seed=2, current="1.2,0", wind="3,45", waves="0.3", full_stack=True) as h:
         vehicle = await _start(h)
-        from companion.vehicle import GuidedTarget
+        from companion.messages import GuidedTarget
 
         lat, lon = LocalFrame(*HOME).to_lat_lon(0.0, 40.0)
         assert vehicle.set_mode(15) is None
@@ -170,7 +170,7 @@ async def test_cruise_holds_heading_and_speed_and_switches_controller_family_whi
         assert vehicle.set_mode(20) is None
         vehicle.speed_override_mps = 4.0
         await h.run_for(20.0)
-        control = h.ctx.extras["control"]
+        control = h.services.control
         errors = []
         for k in range(40):
             if k == 20:

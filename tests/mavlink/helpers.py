@@ -1,4 +1,5 @@
-"""Test helpers for the MAVLink area: a plain context with a simulation clock and nav samples."""
+"""Test helpers for the MAVLink area: a plain context with a simulation clock, a vehicle on it,
+nav samples, and the whole companion on a wall clock without hardware (fed by the test)."""
 
 from __future__ import annotations
 
@@ -6,15 +7,21 @@ import asyncio
 import contextlib
 from collections.abc import AsyncIterator
 from pathlib import Path
-from typing import Any
 
 from companion.app import Context
 from companion.bus import Bus
 from companion.clock import SimClock
 from companion.config import default_config
+from companion.control.system import ControlSystem
 from companion.messages import FixType, NavState
+from companion.mission.cursor import MissionCursor
+from companion.mission.store import MissionStore
+from companion.modes.base import Mode
+from companion.modes.manager import MODE_CLASSES, ModeManager
 from companion.param_table import all_param_defs
 from companion.params import ParamStore
+from companion.runtime import Services
+from companion.vehicle import Vehicle, first_mission_seq
 
 HOME_LAT_DEG = 41.77
 HOME_LON_DEG = 123.43
@@ -29,6 +36,13 @@ def make_ctx(state_dir: Path | None = None, profile: str = "ardurover") -> Conte
     return Context(config=config, clock=SimClock(start_unix_time_s=1.7e9), bus=Bus(), params=params)
 
 
+def make_vehicle(ctx: Context, modes: list[type[Mode]] | None = None) -> Vehicle:
+    """A vehicle on ``ctx`` with the given modes (default: all), no model (PID), no payloads."""
+    mission = MissionCursor(MissionStore(), first_mission_seq(str(ctx.config["vehicle.profile"])))
+    control = ControlSystem(ctx.params, ctx.clock, ctx.bus, None)
+    return Vehicle(ctx, mission, ModeManager(modes or MODE_CLASSES), control)
+
+
 def nav_sample(t_s: float, *, lat_deg: float = HOME_LAT_DEG, lon_deg: float = HOME_LON_DEG,
                fix: FixType = FixType.FIX_3D, valid: bool = True, heading_rad: float = 0.5,
                u_mps: float = 0.0) -> NavState:
@@ -38,20 +52,28 @@ def nav_sample(t_s: float, *, lat_deg: float = HOME_LAT_DEG, lon_deg: float = HO
 
 
 def publish_nav(ctx: Context, **kwargs: object) -> NavState:
+    """A nav sample on the bus of a plain context (what the vehicle observes)."""
     nav = nav_sample(ctx.clock.now_s(), **kwargs)  # type: ignore[arg-type]
     ctx.bus.topic("nav", NavState).publish(nav)
+    return nav
+
+
+def feed_nav(services: Services, **kwargs: object) -> NavState:
+    """A nav sample through the running companion's pipeline, as the GPS-INS would deliver it."""
+    nav = nav_sample(services.ctx.clock.now_s(), **kwargs)  # type: ignore[arg-type]
+    services.pipeline.on_sample(nav)
     return nav
 
 
 @contextlib.asynccontextmanager
 async def running_vehicle(state_dir: Path, udp_ports: list[int], *, tcp_port: int | None = None,
                           profile: str = "ardurover", serial: list[str] | None = None,
-                          extra_services: list[Any] | None = None) -> AsyncIterator[Context]:
-    """The companion's MAVLink services on a wall clock, sending to ``udp_ports`` on loopback."""
+                          ) -> AsyncIterator[Services]:
+    """The companion on a wall clock without GPS-INS or servo link, sending to ``udp_ports`` on
+    loopback; the test feeds navigation samples (:func:`feed_nav`, :func:`feeding_nav`)."""
     from companion.app import Application
     from companion.clock import WallClock
-    from companion.mavlink.service import build_mavlink_services
-    from companion.runtime import build_context
+    from companion.runtime import build_companion, build_context
 
     config = default_config().with_overrides({
         "vehicle.profile": profile, "vehicle.state_dir": str(state_dir),
@@ -59,27 +81,27 @@ async def running_vehicle(state_dir: Path, udp_ports: list[int], *, tcp_port: in
         "links.tcp_listen": f"127.0.0.1:{tcp_port}" if tcp_port else "",
         "links.serial": serial or [],
     })
-    ctx = build_context(config, WallClock())
-    app = Application([*build_mavlink_services(ctx), *(extra_services or [])])
+    services = build_companion(build_context(config, WallClock()))
+    app = Application(services.in_start_order())
     task = asyncio.create_task(app.run(install_signal_handlers=False))
     try:
-        while "mavlink" not in app.started:
+        while "hardware-io" not in app.started:
             if task.done():
                 task.result()
             await asyncio.sleep(0.01)
-        yield ctx
+        yield services
     finally:
         app.request_stop()
         await asyncio.wait_for(task, 5.0)
 
 
 @contextlib.asynccontextmanager
-async def feeding_nav(ctx: Context, period_s: float = 0.05) -> AsyncIterator[None]:
-    """Publish a nav sample every ``period_s`` of wall time while the block runs (a live GPS-INS)."""
+async def feeding_nav(services: Services, period_s: float = 0.05) -> AsyncIterator[None]:
+    """Feed a nav sample every ``period_s`` of wall time while the block runs (a live GPS-INS)."""
 
     async def feed() -> None:
         while True:
-            publish_nav(ctx)
+            feed_nav(services)
             await asyncio.sleep(period_s)
 
     feeder = asyncio.create_task(feed())

@@ -18,8 +18,7 @@ import pytest
 
 from companion.link.dialect import mav
 from companion.mavlink.params import PARAMS
-from companion.messages import NavState
-from companion.vehicle import vehicle_of
+from companion.messages import ModeNumber, NavState
 from sim_bridge.simboat import CH_IGNITION
 from tests.mavlink.sitl_gcs import run_until_done, sitl_with_gcs
 
@@ -27,7 +26,7 @@ pytestmark = pytest.mark.integration
 
 FS_GCS_TIMEOUT_S = 5.0
 ENG_STOP_S = 25.0
-MODE_GUIDED, MODE_RTL = 15, 11
+MODE_GUIDED, MODE_RTL = ModeNumber.GUIDED, ModeNumber.RTL
 
 
 def test_engine_stop_default_is_the_chapters_120_s() -> None:
@@ -45,9 +44,9 @@ async def test_gcs_loss_rtl_then_engine_stop_then_nothing_restored() -> None:
                 heartbeats["next_s"] = nav.t_s + 1.0
                 gcs.heartbeat()
 
-        h.loop.add_stage("test-gcs-heartbeat", gcs_heartbeat)
+        h.ctx.bus.topic("nav", NavState).add_listener(gcs_heartbeat)  # a GCS on simulated time
         await h.run_for(2.0)
-        vehicle = vehicle_of(h.ctx)
+        vehicle = h.services.vehicle
         ack = await run_until_done(h, gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1))
         assert ack.result == mav.MAV_RESULT_ACCEPTED
         nav = vehicle.nav()

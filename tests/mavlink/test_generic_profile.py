@@ -13,11 +13,11 @@ from tests.mavlink.helpers import feeding_nav, running_vehicle
 
 async def test_generic_profile_identity_standard_modes_and_bytewise_ints(state_dir: Path) -> None:
     port = free_port()
-    async with AsyncGcs(port) as gcs, running_vehicle(state_dir, [port], profile="generic") as ctx:
+    async with AsyncGcs(port) as gcs, running_vehicle(state_dir, [port], profile="generic") as services:
         hb = await gcs.connect()
         assert (hb.type, hb.autopilot) == (mav.MAV_TYPE_SURFACE_BOAT, mav.MAV_AUTOPILOT_GENERIC)
 
-        async with feeding_nav(ctx):
+        async with feeding_nav(services):
             await asyncio.sleep(0.2)
             ack = await gcs.command(mav.MAV_CMD_DO_SET_STANDARD_MODE, mav.MAV_STANDARD_MODE_POSITION_HOLD)
             assert ack.result == mav.MAV_RESULT_ACCEPTED

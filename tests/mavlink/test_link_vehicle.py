@@ -8,10 +8,9 @@ import sys
 from pathlib import Path
 
 from companion.link.dialect import mav
-from companion.mavlink.commands import CommandRequest, CommandResult, register_command
-from companion.vehicle import vehicle_of
+from companion.mavlink.commands import CommandRequest, CommandResult
 from tests.mavlink.gcs import AsyncGcs, free_port
-from tests.mavlink.helpers import feeding_nav, publish_nav, running_vehicle
+from tests.mavlink.helpers import feed_nav, feeding_nav, running_vehicle
 
 PREARM = mav.MAV_SYS_STATUS_PREARM_CHECK
 GPS = mav.MAV_SYS_STATUS_SENSOR_GPS
@@ -19,7 +18,7 @@ GPS = mav.MAV_SYS_STATUS_SENSOR_GPS
 
 async def test_heartbeat_identity_and_health(state_dir: Path) -> None:
     port = free_port()
-    async with AsyncGcs(port) as gcs, running_vehicle(state_dir, [port]) as ctx:
+    async with AsyncGcs(port) as gcs, running_vehicle(state_dir, [port]) as services:
         hb = await gcs.connect()
         assert (hb.type, hb.autopilot) == (mav.MAV_TYPE_SURFACE_BOAT, mav.MAV_AUTOPILOT_ARDUPILOTMEGA)
         assert hb.custom_mode == 4 and hb.get_srcSystem() == 1 and hb.get_srcComponent() == 1
@@ -28,7 +27,7 @@ async def test_heartbeat_identity_and_health(state_dir: Path) -> None:
         banner = [m.text for m in gcs.received if m.get_type() == "STATUSTEXT"]
         assert any(t.startswith("usv-companion") for t in banner), banner
 
-        async with feeding_nav(ctx):
+        async with feeding_nav(services):
             st = await gcs.wait("SYS_STATUS", lambda m: m.onboard_control_sensors_health & PREARM, 3.0)
             assert st.onboard_control_sensors_health & GPS
             gp = await gcs.wait("GLOBAL_POSITION_INT")
@@ -50,19 +49,19 @@ async def test_boot_statustext_names_product(state_dir: Path) -> None:
 
 async def test_arm_denied_with_reason_then_accepted(state_dir: Path) -> None:
     port = free_port()
-    async with AsyncGcs(port) as gcs, running_vehicle(state_dir, [port]) as ctx:
+    async with AsyncGcs(port) as gcs, running_vehicle(state_dir, [port]) as services:
         await gcs.connect()
         texts = asyncio.ensure_future(gcs.wait("STATUSTEXT", lambda m: "PreArm" in m.text))
         ack = await gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1)
         assert ack.result == mav.MAV_RESULT_DENIED
         assert "navigation" in (await texts).text
-        publish_nav(ctx)
+        feed_nav(services)
         ack = await gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1)
         assert ack.result == mav.MAV_RESULT_ACCEPTED
         hb = await gcs.wait("HEARTBEAT", lambda m: m.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
         assert hb.system_status == mav.MAV_STATE_ACTIVE
         ack = await gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0)
-        assert ack.result == mav.MAV_RESULT_ACCEPTED and not vehicle_of(ctx).armed
+        assert ack.result == mav.MAV_RESULT_ACCEPTED and not services.vehicle.armed
 
 
 async def test_modes_set_refuse_and_report(state_dir: Path) -> None:
@@ -103,15 +102,15 @@ async def test_unknown_nan_and_garbage_never_kill(state_dir: Path) -> None:
 
 
 async def test_long_command_in_progress_then_result(state_dir: Path) -> None:
-    async def slow(ctx: object, cmd: CommandRequest) -> CommandResult:
+    async def slow(cmd: CommandRequest) -> CommandResult:
         await asyncio.sleep(0.5)
         cmd.progress(50)
         await asyncio.sleep(0.1)
         return CommandResult.accepted()
 
     port = free_port()
-    async with AsyncGcs(port) as gcs, running_vehicle(state_dir, [port]) as ctx:
-        register_command(31013, slow, ctx=ctx)
+    async with AsyncGcs(port) as gcs, running_vehicle(state_dir, [port]) as services:
+        services.commands.register(31013, slow)
         await gcs.connect()
         start = len(gcs.received)
         ack = await gcs.command(31013)

@@ -11,14 +11,14 @@ from companion.mission.items import MissionItem, MissionType
 from companion.param_table import all_param_defs
 from companion.params import ParamStore
 from tests.mavlink.gcs import AsyncGcs, free_port
-from tests.mavlink.helpers import publish_nav, running_vehicle
+from tests.mavlink.helpers import feed_nav, running_vehicle
 
 
 async def test_param_list_read_set_refuse_persist(state_dir: Path) -> None:
     port = free_port()
-    async with AsyncGcs(port) as gcs, running_vehicle(state_dir, [port]) as ctx:
+    async with AsyncGcs(port) as gcs, running_vehicle(state_dir, [port]) as services:
         await gcs.connect()
-        total = len(ctx.params)
+        total = len(services.ctx.params)
         gcs.send(mav.MAVLink_param_request_list_message(1, 1))
         for _ in range(200):
             await asyncio.sleep(0.02)
@@ -29,7 +29,7 @@ async def test_param_list_read_set_refuse_persist(state_dir: Path) -> None:
         assert values["FRAME_CLASS"].param_type == mav.MAV_PARAM_TYPE_INT32
         gcs.send(mav.MAVLink_param_request_read_message(1, 1, b"WP_RADIUS", -1))
         pv = await gcs.wait("PARAM_VALUE", lambda m: m.param_id == "WP_RADIUS")
-        assert pv.param_index == ctx.params.index_of("WP_RADIUS")
+        assert pv.param_index == services.ctx.params.index_of("WP_RADIUS")
         gcs.send(mav.MAVLink_param_request_read_message(1, 1, b"", pv.param_index))
         assert (await gcs.wait("PARAM_VALUE")).param_id == "WP_RADIUS"
         # refused: echo the old value and say why
@@ -111,9 +111,9 @@ def square_plan(n: int) -> list[MissionItem]:
 async def test_mission_round_trip_persisted(state_dir: Path) -> None:
     port = free_port()
     plan = square_plan(20)
-    async with AsyncGcs(port) as gcs, running_vehicle(state_dir, [port]) as ctx:
+    async with AsyncGcs(port) as gcs, running_vehicle(state_dir, [port]) as services:
         await gcs.connect()
-        publish_nav(ctx)
+        feed_nav(services)
         ack = await upload(gcs, plan)
         assert ack.type == mav.MAV_MISSION_ACCEPTED
         items = await download(gcs)
@@ -159,12 +159,12 @@ async def test_invalid_items_refused_with_code(state_dir: Path) -> None:
 async def test_upload_completes_with_30_percent_loss(state_dir: Path) -> None:
     port = free_port()
     plan = square_plan(30)
-    async with AsyncGcs(port, loss=0.3, seed=7) as gcs, running_vehicle(state_dir, [port]) as ctx:
+    async with AsyncGcs(port, loss=0.3, seed=7) as gcs, running_vehicle(state_dir, [port]) as services:
         await gcs.connect(timeout_s=10.0)
-        ctx.extras["mavlink"].missions.item_timeout_s = 0.1  # type: ignore[attr-defined]
+        services.mavlink.missions.item_timeout_s = 0.1
         ack = await upload(gcs, plan, timeout_s=90.0, retry_s=0.1)
         assert ack.type == mav.MAV_MISSION_ACCEPTED
         assert gcs.dropped > 10
         items = await download(gcs, retry_s=0.1)
         assert [(m.x, m.y) for m in items[1:]] == [(p.x, p.y) for p in plan[1:]]
-        assert len(ctx.extras["vehicle"].missions.items(MissionType.MISSION)) == 31  # type: ignore[attr-defined]
+        assert len(services.vehicle.missions.items(MissionType.MISSION)) == 31

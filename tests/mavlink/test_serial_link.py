@@ -32,21 +32,21 @@ async def test_serial_link_on_pty_and_reconnect(state_dir: Path) -> None:
     tty.setraw(slave)
     os.set_blocking(master, False)
     device = os.ttyname(slave)
-    async with running_vehicle(state_dir, [], serial=[f"{device}:57600"]) as ctx:
+    async with running_vehicle(state_dir, [], serial=[f"{device}:57600"]) as services:
         hb = await _read_heartbeat(master)
         assert hb.type == mav.MAV_TYPE_SURFACE_BOAT  # type: ignore[attr-defined]
         codec = new_codec(255, 190)
         os.write(master, mav.MAVLink_command_long_message(1, 1, 520, 0, 1, 0, 0, 0, 0, 0, 0).pack(codec))
-        links = ctx.extras["links"]
+        links = services.links
         # the port vanishes (radio unplugged): the link goes away, the vehicle keeps running
         os.close(master)
         os.close(slave)
         for _ in range(100):
-            if not links.links:  # type: ignore[attr-defined]
+            if not links.links:
                 break
             await asyncio.sleep(0.05)
-        assert not links.links  # type: ignore[attr-defined]
-        port = links.serial[0]  # type: ignore[attr-defined]
+        assert not links.links
+        port = links.serial[0]
         assert port.open_count == 1
         await asyncio.sleep(0.1)
-        assert ctx.extras["mavlink"] is not None
+        assert services.mavlink.links is links

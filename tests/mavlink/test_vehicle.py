@@ -2,17 +2,17 @@
 
 from __future__ import annotations
 
-from companion.messages import FixType, StatusText
+from companion.messages import FixType, ModeNumber, StatusText
 from companion.mission.items import MissionItem, MissionType
 from companion.modes.base import Mode
-from companion.modes.manager import ModeManager
-from companion.vehicle import MissionState, Vehicle, vehicle_of
-from tests.mavlink.helpers import HOME_LAT_DEG, make_ctx, publish_nav
+from companion.modes.host import ModeHost
+from companion.vehicle import MissionState
+from tests.mavlink.helpers import HOME_LAT_DEG, make_ctx, make_vehicle, publish_nav
 
 
 def test_arming_refused_without_position_then_accepted() -> None:
     ctx = make_ctx()
-    vehicle = Vehicle(ctx)
+    vehicle = make_vehicle(ctx)
     texts: list[str] = []
     ctx.bus.topic("status_text", StatusText).add_listener(lambda s: texts.append(s.text))
     reason = vehicle.arm()
@@ -29,7 +29,7 @@ def test_arming_refused_without_position_then_accepted() -> None:
 
 def test_stale_navigation_is_no_position() -> None:
     ctx = make_ctx()
-    vehicle = Vehicle(ctx)
+    vehicle = make_vehicle(ctx)
     publish_nav(ctx)
     ctx.clock.advance_to(5.0)  # type: ignore[attr-defined]
     assert vehicle.nav() is None
@@ -37,23 +37,22 @@ def test_stale_navigation_is_no_position() -> None:
 
 
 def test_force_arm_skips_checks() -> None:
-    vehicle = Vehicle(make_ctx())
+    vehicle = make_vehicle(make_ctx())
     assert vehicle.arm(force=True) is None and vehicle.armed
 
 
 def test_mode_change_refusal_and_listener() -> None:
     class NeedsMission(Mode):
-        number = 10
+        number = ModeNumber.AUTO
         name = "AUTO"
 
-        def requirements(self, vehicle: Vehicle) -> str | None:
-            return None if len(vehicle.mission_items()) > 1 else "no mission"
+        def requirements(self, host: ModeHost) -> str | None:
+            return None if len(host.mission.items()) > 1 else "no mission"
 
     ctx = make_ctx()
-    vehicle = Vehicle(ctx)
     from companion.modes.hold import HoldMode
     from companion.modes.manual import ManualMode
-    vehicle.modes = ModeManager(vehicle, [ManualMode, HoldMode, NeedsMission])
+    vehicle = make_vehicle(ctx, [ManualMode, HoldMode, NeedsMission])
     assert vehicle.modes.current.name == "HOLD"
     assert vehicle.set_mode(10) == "AUTO: no mission"
     assert "unknown mode 99" in (vehicle.set_mode(99) or "")
@@ -64,25 +63,23 @@ def test_mode_change_refusal_and_listener() -> None:
 
 def test_failing_mode_update_falls_back_to_hold() -> None:
     class Broken(Mode):
-        number = 15
+        number = ModeNumber.GUIDED
         name = "GUIDED"
 
-        def update(self, vehicle: Vehicle, nav: object) -> None:
+        def update(self, host: ModeHost, nav: object) -> None:
             raise ZeroDivisionError("boom")
 
     from companion.modes.hold import HoldMode
     ctx = make_ctx()
-    vehicle = Vehicle(ctx)
-    vehicle.modes = ModeManager(vehicle, [HoldMode, Broken])
+    vehicle = make_vehicle(ctx, [HoldMode, Broken])
     assert vehicle.set_mode(15) is None
-    vehicle.modes.update(publish_nav(ctx))
+    assert vehicle.update_mode(publish_nav(ctx)) is None  # no command from a broken mode
     assert vehicle.modes.current.name == "HOLD"
 
 
 def test_mission_progress_states() -> None:
     ctx = make_ctx()
-    vehicle = Vehicle(ctx)
-    assert vehicle_of(ctx) is vehicle
+    vehicle = make_vehicle(ctx)
     assert vehicle.mission_state == MissionState.NO_MISSION
     plan = [MissionItem.home(41.77, 123.43)] + [MissionItem.waypoint(i, 41.77 + i * 1e-4, 123.43)
                                                 for i in range(1, 4)]

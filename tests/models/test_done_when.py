@@ -18,17 +18,14 @@ import pytest
 
 from benchmarks.identify import CURRENT, WAVES, simulated_record
 from companion.app import Context
-from companion.bus import Bus
 from companion.clock import SimClock
 from companion.config import default_config
-from companion.estimation.service import make_estimator_stage
 from companion.models.base import DOF_NAMES, LinearInParamsModel
 from companion.models.logs import Record
 from companion.models.params_file import dump_model_params, load_model_params, load_ukf_settings
 from companion.models.persistence import held_error_bound
 from companion.models.pipeline import JTable, identify_models, ratios, validate
-from companion.param_table import all_param_defs
-from companion.params import ParamStore
+from companion.runtime import build_companion, build_context
 from sim_bridge.maneuvers import run_maneuver, write_log_csv
 from tests.conftest import usv_command
 
@@ -178,7 +175,7 @@ def test_usv_identify_broken_csv_is_one_line_error(tmp_path: Path) -> None:
 
 def _ctx(overrides: dict[str, str]) -> Context:
     cfg = default_config().with_overrides(overrides)
-    return Context(cfg, SimClock(), Bus(), ParamStore(all_param_defs()))
+    return build_context(cfg, SimClock())
 
 
 def test_companion_loads_params_toml_from_state_dir_and_config(tmp_path: Path) -> None:
@@ -187,8 +184,9 @@ def test_companion_loads_params_toml_from_state_dir_and_config(tmp_path: Path) -
     ref = reference_qlpv(c_thrust=0.123)
     dump_model_params(ref, tmp_path / "state" / "model" / "params.toml")
     ctx = _ctx({"vehicle.state_dir": str(tmp_path / "state")})
-    make_estimator_stage(ctx)
-    used = ctx.extras["qlpv_model"]
+    services = build_companion(ctx)
+    used = services.estimator.model
+    assert services.control.model is used  # the active-model law flies the same model
     np.testing.assert_array_equal(used.theta, ref.theta)
     assert used.thrust_speed_coeff == 0.123
     other = reference_qlpv(c_thrust=0.0)
@@ -196,5 +194,4 @@ def test_companion_loads_params_toml_from_state_dir_and_config(tmp_path: Path) -
     ctx2 = _ctx(
         {"vehicle.state_dir": str(tmp_path / "state"), "models.params_file": str(tmp_path / "elsewhere.toml")}
     )
-    make_estimator_stage(ctx2)
-    assert ctx2.extras["qlpv_model"].thrust_speed_coeff == 0.0
+    assert build_companion(ctx2).estimator.model.thrust_speed_coeff == 0.0

@@ -13,11 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from companion.app import Context
-from companion.bus import Bus
-from companion.clock import SimClock
 from companion.config import default_config
-from companion.estimation.service import EstimatorStage, make_estimator_stage
+from companion.estimation.service import EstimatorStage, load_companion_model, load_companion_ukf_settings
 from companion.estimation.ukf import CHAPTER_R_DIAG, UKFSettings
 from companion.models.base import DOF_NAMES
 from companion.models.evaluate import evaluate
@@ -25,8 +22,6 @@ from companion.models.logs import Record
 from companion.models.noise_fit import fit_ukf_noise
 from companion.models.params_file import ModelParamsError, dump_model_params, load_ukf_settings
 from companion.models.persistence import autocorrelation, held_error_bound
-from companion.param_table import all_param_defs
-from companion.params import ParamStore
 from tests.models.helpers import reference_qlpv, sine_inputs
 
 SENSOR_STD = np.sqrt(CHAPTER_R_DIAG)
@@ -97,9 +92,7 @@ def _stage(tmp_path: Path, choice: str) -> EstimatorStage:
     dump_model_params(reference_qlpv(), tmp_path / "state" / "model" / "params.toml", ukf=noise)
     cfg = default_config().with_overrides({"vehicle.state_dir": str(tmp_path / "state"),
                                            "models.ukf_noise": choice})
-    stage = make_estimator_stage(Context(cfg, SimClock(), Bus(), ParamStore(all_param_defs())))
-    assert isinstance(stage, EstimatorStage)
-    return stage
+    return EstimatorStage(load_companion_model(cfg), load_companion_ukf_settings(cfg))
 
 
 def test_companion_uses_identified_noise_only_when_asked(tmp_path: Path) -> None:

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import math
 
 import pytest
 
-from companion.mavlink.commands import MAV_RESULT, CommandRequest, registry_of
+from companion.mavlink.commands import MAV_RESULT, CommandRegistry, CommandRequest
 from companion.messages import ControlSource
 from companion.payloads.service import PayloadService, launcher_status_message, sampler_status_message
 from mavlink_dialect import UsvCmd, usv
@@ -18,9 +19,11 @@ from .helpers import World, make_ctx
 @pytest.fixture
 def world(tmp_path) -> World:
     ctx = make_ctx()
-    ctx.config = ctx.config.with_overrides({"vehicle.state_dir": str(tmp_path / "state")})
+    state = {"vehicle.state_dir": str(tmp_path / "state")}
+    ctx = dataclasses.replace(ctx, config=ctx.config.with_overrides(state))
     w = World(ctx, tmp_path)
-    w.service = PayloadService(ctx)  # type: ignore[attr-defined]
+    w.registry = CommandRegistry()  # type: ignore[attr-defined]
+    w.service = PayloadService(ctx, w.registry)  # type: ignore[attr-defined]
     w.outputs = w.service.payloads.outputs  # type: ignore[attr-defined]
     return w
 
@@ -35,10 +38,10 @@ def _cmd(command: int, *params: float, progress: list[int] | None = None) -> Com
 
 
 async def _run(world: World, cmd: CommandRequest, seconds: float = 1.0):
-    spec = registry_of(world.ctx).get(cmd.command)
+    spec = world.registry.get(cmd.command)
     assert spec is not None
     assert not cmd.nan_params(spec.required_params)
-    task = asyncio.ensure_future(spec.handler(world.ctx, cmd))
+    task = asyncio.ensure_future(spec.handler(cmd))
     await world.advance(seconds)
     assert task.done()
     return task.result()
@@ -49,11 +52,11 @@ async def test_arm_fire_sequence_and_status_messages(world: World) -> None:
     assert (await _run(world, _cmd(UsvCmd.LAUNCHER_FIRE))).result == MAV_RESULT.DENIED
     res = await _run(world, _cmd(UsvCmd.LAUNCHER_ARM, 1))
     assert res.result == MAV_RESULT.ACCEPTED and "ARMED" in res.reason
-    msg = launcher_status_message(world.ctx.extras["payloads"], 1000)
+    msg = launcher_status_message(world.service.payloads, 1000)
     assert msg.state == usv.USV_LAUNCHER_STATE_ARMED and msg.interlocks == 0x1F and msg.shots_left == 1
     res = await _run(world, _cmd(UsvCmd.LAUNCHER_FIRE))
     assert res.result == MAV_RESULT.ACCEPTED and res.reason.startswith("launcher: FIRED")
-    msg = launcher_status_message(world.ctx.extras["payloads"], 2000)
+    msg = launcher_status_message(world.service.payloads, 2000)
     assert msg.state == usv.USV_LAUNCHER_STATE_EMPTY and msg.last_launch_time_unix_usec > 0
     assert msg.last_launch_heading == round(math.degrees(0.5) * 100)
     msg.pack(usv.MAVLink(None))
@@ -66,7 +69,7 @@ async def test_denials_carry_the_interlock(world: World) -> None:
     assert res.result == MAV_RESULT.DENIED and res.reason == "launcher: RC has control (selector)"
     res = await _run(world, _cmd(UsvCmd.LAUNCHER_ARM, 3))
     assert res.result == MAV_RESULT.DENIED
-    assert registry_of(world.ctx).get(UsvCmd.LAUNCHER_ARM).required_params == (1,)  # type: ignore[union-attr]
+    assert world.registry.get(UsvCmd.LAUNCHER_ARM).required_params == (1,)  # type: ignore[union-attr]
 
 
 async def test_sample_command_reports_progress_then_result(world: World) -> None:
@@ -75,15 +78,15 @@ async def test_sample_command_reports_progress_then_result(world: World) -> None
     res = await _run(world, _cmd(UsvCmd.SAMPLE, 0, 5.0, progress=progress), seconds=7.0)
     assert res.result == MAV_RESULT.ACCEPTED and "bottle 1 full" in res.reason
     assert len(progress) >= 3 and progress == sorted(progress) and progress[-1] < 100
-    msg = sampler_status_message(world.ctx.extras["payloads"], 0)
+    msg = sampler_status_message(world.service.payloads, 0)
     assert list(msg.bottle_state) == [usv.USV_BOTTLE_STATE_FULL, 0, 0, 0] and msg.last_sample_bottle == 1
 
 
 async def test_pump_stop_cancels_running_sample(world: World) -> None:
     world.publish_sensors()
-    spec = registry_of(world.ctx).get(UsvCmd.SAMPLE)
+    spec = world.registry.get(UsvCmd.SAMPLE)
     assert spec is not None
-    task = asyncio.ensure_future(spec.handler(world.ctx, _cmd(UsvCmd.SAMPLE, 2, 30.0)))
+    task = asyncio.ensure_future(spec.handler(_cmd(UsvCmd.SAMPLE, 2, 30.0)))
     await world.advance(2.0)
     assert world.outputs.current.pump_on
     res = await _run(world, _cmd(UsvCmd.PUMP_STOP))

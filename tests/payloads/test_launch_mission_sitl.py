@@ -12,7 +12,7 @@ import pytest
 from companion.guidance.geo import LocalFrame
 from companion.mission.items import MissionItem, MissionType
 from companion.mission.validate import validate_plan
-from companion.vehicle import MissionState, vehicle_of
+from companion.vehicle import MissionState
 from mavlink_dialect import UsvCmd
 from sim_bridge.sitl import SitlHarness
 
@@ -29,7 +29,7 @@ async def test_launch_at_point_orients_to_the_bearing_stops_fires_and_continues(
         seed: int, current: str, bearing_deg: float) -> None:
     async with SitlHarness(seed=seed, current=current, full_stack=True) as h:
         await h.run_for(2.0)
-        vehicle = vehicle_of(h.ctx)
+        vehicle = h.services.vehicle
         frame = LocalFrame(*HOME)
         plan = [MissionItem.home(*HOME),
                 MissionItem.at(1, UsvCmd.NAV_LAUNCH_AT, *frame.to_lat_lon(*LAUNCH_NE), param1=bearing_deg),

@@ -11,12 +11,11 @@ import pytest
 
 from companion.guidance.geo import LocalFrame
 from companion.link.dialect import mav
-from companion.mavlink.commands import CommandRequest, registry_of
+from companion.mavlink.commands import CommandRequest
 from companion.messages import StatusText
 from companion.mission.items import MissionItem, MissionType
 from companion.mission.validate import validate_plan
-from companion.payloads.registry import payloads_of
-from companion.vehicle import MissionState, vehicle_of
+from companion.vehicle import MissionState
 from mavlink_dialect import UsvCmd
 from sim_bridge.sitl import SitlHarness
 
@@ -30,7 +29,7 @@ VOLUME_ML = 100.0
 async def test_four_sample_items_fill_four_bottles_within_2_5_m_and_a_fifth_is_refused() -> None:
     async with SitlHarness(seed=2, current="0.2,45", full_stack=True) as h:
         await h.run_for(2.0)
-        vehicle = vehicle_of(h.ctx)
+        vehicle = h.services.vehicle
         frame = LocalFrame(*HOME)
         plan = [MissionItem.home(*HOME)]
         plan += [MissionItem.at(i + 1, UsvCmd.NAV_SAMPLE_HERE, *frame.to_lat_lon(n, e), param4=VOLUME_ML)
@@ -46,7 +45,7 @@ async def test_four_sample_items_fill_four_bottles_within_2_5_m_and_a_fifth_is_r
         await h.run_until(lambda: vehicle.mission_state == MissionState.COMPLETE, 400.0)
         assert vehicle.mission_state == MissionState.COMPLETE, (reached, texts[-10:])
 
-        payloads = payloads_of(h.ctx)
+        payloads = h.services.payloads.payloads
         samples = payloads.samplelog.samples("complete")
         assert [s.bottle for s in samples] == [1, 2, 3, 4]
         assert [s.mission_seq for s in samples] == [1, 2, 3, 4]
@@ -62,9 +61,9 @@ async def test_four_sample_items_fill_four_bottles_within_2_5_m_and_a_fifth_is_r
         assert "sampler: no empty bottle left" in texts
         assert len(payloads.samplelog.samples(None)) == 4
         # ... and so is a fifth sample command.
-        spec = registry_of(h.ctx).get(UsvCmd.SAMPLE)
+        spec = h.services.commands.get(UsvCmd.SAMPLE)
         assert spec is not None
-        result = await spec.handler(h.ctx, CommandRequest(UsvCmd.SAMPLE, (0.0,) * 7))
+        result = await spec.handler(CommandRequest(UsvCmd.SAMPLE, (0.0,) * 7))
         assert result.result == mav.MAV_RESULT_DENIED and result.reason == "sampler: no empty bottle left"
         await asyncio.sleep(0)
         await h.run_for(1.0)

@@ -8,8 +8,7 @@ import math
 
 import pytest
 
-from companion.messages import VehicleStatus
-from companion.payloads.registry import Payloads, payloads_of
+from companion.payloads.registry import Payloads
 from companion.payloads.sampler import SampleJob
 from sim_bridge.sitl import SitlHarness
 
@@ -17,13 +16,8 @@ pytestmark = pytest.mark.integration
 
 
 def _arm_vehicle(h: SitlHarness) -> None:
-    vehicle = h.ctx.extras.get("vehicle")
-    if vehicle is not None and hasattr(vehicle, "arm"):
-        assert vehicle.arm(force=True) is None
-    else:  # no Vehicle in this stack yet: publish the arming state it would publish
-        h.ctx.bus.topic("vehicle_status", VehicleStatus).publish(
-            VehicleStatus(t_s=h.clock.now_s(), armed=True, mode=0)
-        )
+    assert h.services is not None
+    assert h.services.vehicle.arm(force=True) is None
 
 
 async def _fire(h: SitlHarness, p: Payloads) -> str | None:
@@ -35,7 +29,7 @@ async def _fire(h: SitlHarness, p: Payloads) -> str | None:
 async def test_arm_and_fire_registers_launch_at_heading() -> None:
     async with SitlHarness(full_stack=True, psi0_deg=60.0) as h:
         await h.run_for(1.0)
-        p = payloads_of(h.ctx)
+        p = h.services.payloads.payloads
         _arm_vehicle(h)
         before = p.launcher.pressure_mpa()
         assert before is not None and before > 25.0  # read from the simulated $PUSVP sentence
@@ -55,7 +49,7 @@ async def test_arm_and_fire_registers_launch_at_heading() -> None:
 async def test_each_interlock_refuses_and_sim_registers_no_launch() -> None:
     async with SitlHarness(full_stack=True, params={"USV_LNCH_ARM_S": 5.0}) as h:
         await h.run_for(1.0)
-        p = payloads_of(h.ctx)
+        p = h.services.payloads.payloads
         assert await _fire(h, p) == "launcher: vehicle not armed"
         _arm_vehicle(h)
         assert await _fire(h, p) == "launcher: not armed (send ARM first)"
@@ -76,7 +70,7 @@ async def test_each_interlock_refuses_and_sim_registers_no_launch() -> None:
 async def test_sample_fills_the_simulated_bottle() -> None:
     async with SitlHarness(full_stack=True) as h:
         await h.run_for(1.0)
-        p = payloads_of(h.ctx)
+        p = h.services.payloads.payloads
         job = p.start_sample(bottle=0, volume_ml=200.0)
         assert isinstance(job, SampleJob) and job.bottle == 1
         await h.run_for(12.0)

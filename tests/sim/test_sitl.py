@@ -12,9 +12,8 @@ from sim_bridge.sitl import SitlHarness
 
 
 def drive(h: SitlHarness, throttle: float, nozzle_rad: float = 0.0, ignition: bool = True) -> None:
-    topic = h.ctx.bus.topic("actuator_cmd", ActuatorCommand)
-    h.loop.add_stage("test-driver", lambda nav: topic.publish(
-        ActuatorCommand(nav.t_s, nozzle_rad=nozzle_rad, throttle=throttle, ignition_on=ignition)))
+    h.drive(lambda nav: ActuatorCommand(nav.t_s, nozzle_rad=nozzle_rad, throttle=throttle,
+                                        ignition_on=ignition))
 
 
 @pytest.mark.parametrize("transport", ["memory", "pty"])
@@ -22,7 +21,7 @@ async def test_companion_drives_the_boat_one_frame_per_sample(transport: str) ->
     async with SitlHarness(transport=transport) as h:
         drive(h, 1.0)
         await h.run_for(20.0)
-        assert h.loop.stats.samples == 2000 and h.boat.frames_received >= 2000
+        assert h.stats.samples == 2000 and h.boat.frames_received >= 2000
         assert h.lockstep is not None and h.lockstep.missed_acks == 0
         assert h.plant.state.u_mps > 8.0
         nav = h.ctx.bus.topic("nav", NavState).latest()
@@ -56,10 +55,10 @@ async def test_gps_outage_and_silent_sensor_are_visible_to_the_companion() -> No
         await h.run_for(1.0)
         nav = h.ctx.bus.topic("nav", NavState).latest()
         assert nav is not None and not nav.position_valid and nav.satellites == 0
-        samples = h.loop.stats.samples
+        samples = h.stats.samples
         h.faults.silent = True
         await h.run_for(2.0)
-        assert h.loop.stats.samples == samples  # no samples, and lockstep did not hang
+        assert h.stats.samples == samples  # no samples, and lockstep did not hang
         assert h.boat.frames_received > samples  # 10 Hz refresh frames still reach the servos
         h.faults.silent = False
         h.faults.gps_outage = False
@@ -73,11 +72,9 @@ async def test_corrupted_bytes_are_counted_not_fatal() -> None:
         drive(h, 0.3)
         h.faults.corrupt_fraction = 0.2
         await h.run_for(3.0)
-        from companion.loop import HardwareIoService
-
-        io = next(s for s in h.services if isinstance(s, HardwareIoService))
-        assert 20 < io.parser.errors < 120
-        assert 180 < h.loop.stats.samples < 290
+        assert h.hardware is not None
+        assert 20 < h.hardware.parser.errors < 120
+        assert 180 < h.stats.samples < 290
 
 
 async def test_rc_override_takes_the_boat_away_from_the_companion() -> None:
@@ -129,15 +126,18 @@ async def test_sampler_fills_the_selected_bottle_while_the_pump_runs() -> None:
 async def test_the_control_loop_reports_what_each_stage_costs() -> None:
     import time
 
+    def slow_driver(nav: NavState) -> ActuatorCommand:
+        time.sleep(0.0005)
+        return ActuatorCommand(nav.t_s, throttle=0.5, ignition_on=True)
+
     async with SitlHarness() as h:
-        drive(h, 0.5)
-        h.loop.add_stage("slow", lambda nav: time.sleep(0.0005))
+        h.drive(slow_driver)
         await h.run_for(0.5)
-        h.loop.stats.reset_timing()
+        h.stats.reset_timing()
         await h.run_for(0.5)
-        cost = h.loop.stats.per_sample_us()
-        assert set(cost) == {"nav_publish", "test-driver", "slow", "servo_frame"}
-        assert cost["slow"] >= 500.0 and cost["test-driver"] < cost["slow"]
+        cost = h.stats.per_sample_us()
+        assert set(cost) == {"nav_publish", "modes", "servo_frame"}  # no estimator on the seam
+        assert cost["modes"] >= 500.0 and cost["nav_publish"] < cost["modes"]
         assert h.lockstep is not None and h.lockstep.timing_us()["sample_delivery"] >= 500.0
 
 
@@ -149,11 +149,12 @@ async def test_slower_gps_ins_rates_run_the_loop_at_that_rate_through_the_parser
         drive(h, 0.8, 0.2)
         times: list[float] = []
         h.ctx.bus.topic("nav", NavState).add_listener(lambda nav: times.append(nav.t_s))
-        hw = next(s for s in h.services if s.name == "hardware-io")
+        hw = h.hardware
+        assert hw is not None
         await h.run_for(10.0)
-        assert h.loop.stats.samples == 10 * rate_hz
+        assert h.stats.samples == 10 * rate_hz
         assert times[1] - times[0] == pytest.approx(1.0 / rate_hz)
-        assert hw.parser.errors == 0 and hw.parser.nav_samples == 10 * rate_hz  # type: ignore[attr-defined]
+        assert hw.parser.errors == 0 and hw.parser.nav_samples == 10 * rate_hz
         assert h.lockstep is not None and h.lockstep.missed_acks == 0
         assert h.plant.state.u_mps > 3.0 and h.plant.state.r_radps > 0.05  # throttle and starboard nozzle
         nav = h.ctx.bus.topic("nav", NavState).latest()

@@ -1,0 +1,205 @@
+"""The 100 Hz pipeline: one GPS-INS sample in, one servo frame out (chapter Fig. 6).
+
+Every navigation sample parsed from the GPS-INS bytes runs :meth:`Pipeline.on_sample`, one
+synchronous pass through these stages, each a plain method call that RETURNS its result to
+the next:
+
+1. **sample** -- the :class:`~companion.messages.NavState` from the GPS-INS parser
+   (:mod:`companion.sensors.gpsins`);
+2. **estimator** -- the qLPV model + UKF of Eq. 5-11 (:class:`~companion.estimation.service.
+   EstimatorStage`): the model error delta_nu, given the actuator command applied since the
+   last sample; handed to the controller (:meth:`ControlSystem.use_model_error`);
+3. **modes** -- the active mode (:class:`~companion.modes.manager.ModeManager`): its target
+   (mission, guided point, loiter point, pilot sticks), guidance (LOS, circle, station keeping),
+   the controller family (PID or active model) and the actuator mapping (limits, slew rates),
+   ending in an :class:`~companion.messages.ActuatorCommand` (``None``: keep the last one);
+4. **servo frame** -- the command, the payloads' outputs and the operator's servo overrides as
+   pulse widths (:class:`ServoOutput`), written as ONE ``$PUSVS`` frame to the servo link.
+
+The bus carries what observers watch (telemetry, logs, payloads, later MQTT): the pipeline
+publishes ``nav``, ``model_error``, ``actuator_cmd`` and ``servo_out``; no stage reads another
+stage's result from the bus.  A stage that raises is logged and counted
+(:attr:`LoopStats.stage_errors`) and the frame is still written.
+
+The one-frame-per-sample rule is what the simulator's lockstep waits for (the frame's ACK is
+the sample's GPS time field).  Without samples the hardware service refreshes the frame at
+10 Hz (:mod:`companion.hardware`), so failsafe commands still reach the servos.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Protocol, TypeVar
+
+from companion.actuators.servo import ServoMap, encode_frame
+from companion.bus import Bus
+from companion.clock import Clock
+from companion.messages import ActuatorCommand, ModelError, NavState, ServoOutputs
+from companion.params import ParamStore
+from companion.payloads.topics import PAYLOAD_CMD_TOPIC, PayloadCommand
+from companion.transport import ByteLink
+
+log = logging.getLogger(__name__)
+
+T = TypeVar("T")
+
+
+class Estimator(Protocol):
+    """Stage 2: the model error estimate of one sample (``None``: sample skipped)."""
+
+    def step(self, nav: NavState, applied: ActuatorCommand | None) -> ModelError | None: ...
+
+
+class ModelErrorUser(Protocol):
+    """Who receives the estimate (the control system's active-model law)."""
+
+    def use_model_error(self, estimate: ModelError) -> None: ...
+
+
+CommandStage = Callable[[NavState], ActuatorCommand | None]
+"""Stage 3: the actuator command of one sample (``None``: keep the last command)."""
+
+
+@dataclass
+class LoopStats:
+    """Counters and wall-clock time (``time.perf_counter``) spent per stage, for profiling
+    (``usv bench``: ``sim_sitl``); :meth:`per_sample_us` gives the mean cost per sample."""
+
+    samples: int = 0
+    frames: int = 0
+    stage_errors: dict[str, int] = field(default_factory=dict)
+    stage_time_s: dict[str, float] = field(default_factory=dict)
+    frame_time_s: float = 0.0
+    _timed_samples: int = 0
+    _timed_frames: int = 0
+
+    def per_sample_us(self) -> dict[str, float]:
+        """Mean microseconds per sample of each stage (``nav_publish``: the ``nav`` topic's
+        observers) and of building the servo frame, since the last :meth:`reset_timing`."""
+        n = max(1, self.samples - self._timed_samples)
+        out = {name: 1e6 * t / n for name, t in self.stage_time_s.items()}
+        out["servo_frame"] = 1e6 * self.frame_time_s / max(1, self.frames - self._timed_frames)
+        return out
+
+    def reset_timing(self) -> None:
+        """Start timing afresh (e.g. after a warm-up that compiled or cached things)."""
+        self._timed_samples, self._timed_frames = self.samples, self.frames
+        self.stage_time_s = dict.fromkeys(self.stage_time_s, 0.0)
+        self.frame_time_s = 0.0
+
+
+class ServoOutput:
+    """Stage 4: actuator command + payload outputs -> pulse widths -> one servo frame.
+
+    The payloads' wishes (launcher trigger, pump, valve) are the latest ``payload_cmd``; no
+    payload command means launcher safe and pump off.  :attr:`servo_map` also applies the
+    operator's DO_SET_SERVO / DO_SET_RELAY overrides of free outputs.
+    """
+
+    def __init__(self, params: ParamStore, clock: Clock, bus: Bus, stats: LoopStats) -> None:
+        self.params = params
+        self.clock = clock
+        self.stats = stats
+        self.servo_map = ServoMap(params)
+        self.link: ByteLink | None = None
+        """Where frames go (the servo controller); set by the hardware service while it runs."""
+        self._payload = bus.topic(PAYLOAD_CMD_TOPIC, PayloadCommand)
+        self._servo_out = bus.topic("servo_out", ServoOutputs)
+        self._safe_us: int | None = None
+        params.add_listener(self._on_param)
+
+    def _on_param(self, name: str, _value: float) -> None:
+        if name == "USV_LNCH_SAFE_US":
+            self._safe_us = None
+
+    def _launcher_safe_us(self) -> int:
+        if self._safe_us is None:
+            self._safe_us = round(self.params.get_or("USV_LNCH_SAFE_US", 1100))
+        return self._safe_us
+
+    def pulses(self, cmd: ActuatorCommand) -> tuple[int, ...]:
+        """Pulses of ``cmd`` with the payloads' latest ``payload_cmd`` merged in."""
+        payload = self._payload.latest()
+        safe = self._safe_us if self._safe_us is not None else self._launcher_safe_us()
+        if payload is None:
+            return self.servo_map.pulses(cmd, launcher_pulse_us=1900, launcher_safe_us=safe, valve_bottle=0,
+                                         launcher_trigger=False, pump_on=False)
+        return self.servo_map.pulses(cmd, launcher_pulse_us=payload.trigger_pulse_us, launcher_safe_us=safe,
+                                     valve_bottle=payload.valve_bottle,
+                                     launcher_trigger=payload.launcher_trigger, pump_on=payload.pump_on)
+
+    def write(self, cmd: ActuatorCommand | None, ack: str = "") -> ServoOutputs:
+        """Build, publish and send the frame for ``cmd`` (``None``: nothing commanded yet, which
+        is engine off, throttle 0, nozzle centred); ``ack`` answers a GPS-INS sample."""
+        t0 = time.perf_counter()
+        pulses = self.pulses(cmd or ActuatorCommand(t_s=self.clock.now_s()))
+        out = ServoOutputs(t_s=self.clock.now_s(), pulse_us=pulses)
+        self._servo_out.publish(out)
+        self.stats.frames += 1
+        frame = encode_frame(ack, pulses)
+        self.stats.frame_time_s += time.perf_counter() - t0  # the peer's handling is not ours
+        if self.link is not None:
+            self.link.write(frame)
+        return out
+
+
+class Pipeline:
+    """The synchronous sample -> estimator -> modes -> servo frame pass (see the module doc)."""
+
+    def __init__(self, *, bus: Bus, estimator: Estimator | None, model_error_user: ModelErrorUser | None,
+                 modes: CommandStage, output: ServoOutput) -> None:
+        self.estimator = estimator
+        self.model_error_user = model_error_user
+        self.modes = modes
+        self.output = output
+        self.stats = output.stats
+        self.last_command: ActuatorCommand | None = None
+        """The command in force: the last one the modes stage returned."""
+        self.last_sample_s: float | None = None
+        self._t = 0.0
+        self._nav = bus.topic("nav", NavState)
+        self._model_error = bus.topic("model_error", ModelError)
+        self._command = bus.topic("actuator_cmd", ActuatorCommand)
+
+    def on_sample(self, nav: NavState, ack: str = "") -> ServoOutputs:
+        """Run the pipeline for one navigation sample and write its servo frame."""
+        self.stats.samples += 1
+        self.last_sample_s = nav.t_s
+        self._t = time.perf_counter()
+        self._nav.publish(nav)  # observers: home position, telemetry, payloads
+        self._lap("nav_publish")
+        if self.estimator is not None:
+            estimate = self._stage("estimator", self.estimator.step, nav, self.last_command)
+            if estimate is not None:
+                self._model_error.publish(estimate)
+                if self.model_error_user is not None:
+                    self.model_error_user.use_model_error(estimate)
+        command = self._stage("modes", self.modes, nav)
+        if command is not None:
+            self.last_command = command
+            self._command.publish(command)
+        return self.output.write(self.last_command, ack)
+
+    def refresh(self) -> ServoOutputs:
+        """Write the frame of the command in force again (no sample: the 10 Hz refresh)."""
+        return self.output.write(self.last_command)
+
+    def _stage(self, name: str, fn: Callable[..., T | None], *args: object) -> T | None:
+        try:
+            result = fn(*args)
+        except Exception:
+            errors = self.stats.stage_errors
+            errors[name] = errors.get(name, 0) + 1
+            if errors[name] <= 3:
+                log.exception("pipeline stage %s failed", name)
+            result = None
+        self._lap(name)
+        return result
+
+    def _lap(self, name: str) -> None:
+        t0, self._t = self._t, time.perf_counter()
+        times = self.stats.stage_time_s
+        times[name] = times.get(name, 0.0) + (self._t - t0)
