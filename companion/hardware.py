@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 from companion.app import BaseService, Context
@@ -39,11 +40,13 @@ class HardwareIoService(BaseService):
 
     name = "hardware-io"
 
-    def __init__(self, ctx: Context, pipeline: Pipeline, links: HardwareLinks | None = None) -> None:
+    def __init__(self, ctx: Context, pipeline: Pipeline, links: HardwareLinks | None = None,
+                 extra_sentences: Mapping[str, Callable[[list[str]], None]] | None = None) -> None:
+        """``extra_sentences``: the payloads' sentences of the GPS-INS box (name -> handler)."""
         self.ctx = ctx
         self.pipeline = pipeline
         self.given = links or HardwareLinks()
-        self.parser = GpsInsParser(ctx.clock, ctx.bus, pipeline.on_sample)
+        self.parser = GpsInsParser(ctx.clock, ctx.bus, pipeline.on_sample, extra_sentences)
         self.gnss: ByteLink | None = None
         self.servo: ByteLink | None = None
 

@@ -95,6 +95,15 @@ class EngineState:
 
 
 @dataclass(frozen=True, slots=True)
+class PayloadSensors:
+    """The payload box's sensors (``$PUSVP``): cylinder pressure and the water in each bottle."""
+
+    t_s: float
+    cylinder_pressure_mpa: float
+    bottle_volume_ml: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True, slots=True)
 class ActuatorCommand:
     """What the controller (or a manual/RC source) wants the actuators to do, in SI units."""
 
@@ -103,8 +112,6 @@ class ActuatorCommand:
     throttle: float = 0.0
     ignition_on: bool = False
     source: ControlSource = ControlSource.COMPANION
-    launcher_trigger: bool = False
-    pump_on: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -185,6 +192,7 @@ class GuidedTarget:
 TOPICS: dict[str, type] = {
     "nav": NavState,
     "engine": EngineState,
+    "payload_sensors": PayloadSensors,
     "actuator_cmd": ActuatorCommand,
     "servo_out": ServoOutputs,
     "rc_in": RcInput,

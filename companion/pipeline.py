@@ -13,8 +13,9 @@ the next:
    (mission, guided point, loiter point, pilot sticks), guidance (LOS, circle, station keeping),
    the controller family (PID or active model) and the actuator mapping (limits, slew rates),
    ending in an :class:`~companion.messages.ActuatorCommand` (``None``: keep the last one);
-4. **servo frame** -- the command, the payloads' outputs and the operator's servo overrides as
-   pulse widths (:class:`ServoOutput`), written as ONE ``$PUSVS`` frame to the servo link.
+4. **servo frame** -- the command, the payloads' outputs (their declared servo channels) and the
+   operator's servo overrides as pulse widths (:class:`ServoOutput`), written as ONE ``$PUSVS``
+   frame to the servo link.
 
 The bus carries what observers watch (telemetry, logs, payloads, later MQTT): the pipeline
 publishes ``nav``, ``model_error``, ``actuator_cmd`` and ``servo_out``; no stage reads another
@@ -38,8 +39,6 @@ from companion.actuators.servo import ServoMap, encode_frame
 from companion.bus import Bus
 from companion.clock import Clock
 from companion.messages import ActuatorCommand, ModelError, NavState, ServoOutputs
-from companion.params import ParamStore
-from companion.payloads.topics import PAYLOAD_CMD_TOPIC, PayloadCommand
 from companion.transport import ByteLink
 
 log = logging.getLogger(__name__)
@@ -92,50 +91,25 @@ class LoopStats:
 
 
 class ServoOutput:
-    """Stage 4: actuator command + payload outputs -> pulse widths -> one servo frame.
+    """Stage 4: actuator command + payload outputs + overrides -> pulse widths -> one servo frame.
 
-    The payloads' wishes (launcher trigger, pump, valve) are the latest ``payload_cmd``; no
-    payload command means launcher safe and pump off.  :attr:`servo_map` also applies the
-    operator's DO_SET_SERVO / DO_SET_RELAY overrides of free outputs.
+    :attr:`servo_map` knows the channel map, the payloads' servo channels and the operator's
+    DO_SET_SERVO / DO_SET_RELAY overrides of free outputs.
     """
 
-    def __init__(self, params: ParamStore, clock: Clock, bus: Bus, stats: LoopStats) -> None:
-        self.params = params
+    def __init__(self, servo_map: ServoMap, clock: Clock, bus: Bus, stats: LoopStats) -> None:
+        self.servo_map = servo_map
         self.clock = clock
         self.stats = stats
-        self.servo_map = ServoMap(params)
         self.link: ByteLink | None = None
         """Where frames go (the servo controller); set by the hardware service while it runs."""
-        self._payload = bus.topic(PAYLOAD_CMD_TOPIC, PayloadCommand)
         self._servo_out = bus.topic("servo_out", ServoOutputs)
-        self._safe_us: int | None = None
-        params.add_listener(self._on_param)
-
-    def _on_param(self, name: str, _value: float) -> None:
-        if name == "USV_LNCH_SAFE_US":
-            self._safe_us = None
-
-    def _launcher_safe_us(self) -> int:
-        if self._safe_us is None:
-            self._safe_us = round(self.params.get_or("USV_LNCH_SAFE_US", 1100))
-        return self._safe_us
-
-    def pulses(self, cmd: ActuatorCommand) -> tuple[int, ...]:
-        """Pulses of ``cmd`` with the payloads' latest ``payload_cmd`` merged in."""
-        payload = self._payload.latest()
-        safe = self._safe_us if self._safe_us is not None else self._launcher_safe_us()
-        if payload is None:
-            return self.servo_map.pulses(cmd, launcher_pulse_us=1900, launcher_safe_us=safe, valve_bottle=0,
-                                         launcher_trigger=False, pump_on=False)
-        return self.servo_map.pulses(cmd, launcher_pulse_us=payload.trigger_pulse_us, launcher_safe_us=safe,
-                                     valve_bottle=payload.valve_bottle,
-                                     launcher_trigger=payload.launcher_trigger, pump_on=payload.pump_on)
 
     def write(self, cmd: ActuatorCommand | None, ack: str = "") -> ServoOutputs:
         """Build, publish and send the frame for ``cmd`` (``None``: nothing commanded yet, which
         is engine off, throttle 0, nozzle centred); ``ack`` answers a GPS-INS sample."""
         t0 = time.perf_counter()
-        pulses = self.pulses(cmd or ActuatorCommand(t_s=self.clock.now_s()))
+        pulses = self.servo_map.pulses(cmd or ActuatorCommand(t_s=self.clock.now_s()))
         out = ServoOutputs(t_s=self.clock.now_s(), pulse_us=pulses)
         self._servo_out.publish(out)
         self.stats.frames += 1

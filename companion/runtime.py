@@ -12,8 +12,10 @@ from __future__ import annotations
 
 import logging
 import sys
+from collections.abc import Sequence
 from dataclasses import dataclass
 
+from companion.actuators.servo import ServoMap
 from companion.app import BaseService, Context, Service
 from companion.bus import Bus
 from companion.clock import Clock
@@ -27,25 +29,28 @@ from companion.mavlink.service import MavlinkService
 from companion.mavlink.telemetry import Telemetry
 from companion.mission.cursor import MissionCursor
 from companion.mission.store import MissionStore
+from companion.mission.validate import ItemRule, MissionValidator
 from companion.modes.manager import MODE_CLASSES, ModeManager
 from companion.param_table import all_param_defs
 from companion.params import ParamStore
-from companion.payloads.service import PayloadService
+from companion.payloads.registry import PayloadDef, PayloadRegistry, built_in_payloads
 from companion.pipeline import LoopStats, Pipeline, ServoOutput
 from companion.vehicle import Vehicle, first_mission_seq
 
 log = logging.getLogger(__name__)
 
 
-def build_context(config: Config, clock: Clock) -> Context:
+def build_context(config: Config, clock: Clock, extra_payloads: Sequence[PayloadDef] = ()) -> Context:
     """Parameters come from (lowest first): the table's defaults, the config file's
-    ``[params]`` table, then values saved by the operator through a ground station."""
+    ``[params]`` table, then values saved by the operator through a ground station.
+    ``extra_payloads``: payloads beyond the built-in ones (their parameters join the table)."""
     state_dir = config.state_dir()
     state_dir.mkdir(parents=True, exist_ok=True)
-    params = ParamStore(all_param_defs())
+    defs = all_param_defs(extra_payloads)
+    params = ParamStore(defs)
     for name, value in config.params.items():
         params.set(name, value, persist=False)
-    saved = ParamStore(all_param_defs(), state_dir / "params.toml")
+    saved = ParamStore(defs, state_dir / "params.toml")
     for warning in saved.load_warnings:
         log.warning("%s", warning)
     for name in params.names():
@@ -64,8 +69,8 @@ class Services:
     """MAVLink transports (UDP, TCP, serial) and the message dispatcher."""
     commands: CommandRegistry
     """COMMAND_LONG / COMMAND_INT handlers: the vehicle's and the payloads'."""
-    payloads: PayloadService
-    """Rope launcher, water sampler, their sample log."""
+    payloads: PayloadRegistry
+    """Rope launcher, water sampler (and any added payload), their sample log."""
     estimator: EstimatorStage
     """qLPV + UKF model error (Eq. 5-11), stage 2 of the pipeline."""
     control: ControlSystem
@@ -84,28 +89,36 @@ class Services:
         return [self.links, self.mavlink, self.payloads, self.hardware]
 
 
-def build_companion(ctx: Context, hardware: HardwareLinks | None = None) -> Services:
-    """Build every part of the companion; ``hardware``: ready-made GPS-INS/servo links (SITL)."""
+def build_companion(ctx: Context, hardware: HardwareLinks | None = None,
+                    extra_payloads: Sequence[PayloadDef] = ()) -> Services:
+    """Build every part of the companion; ``hardware``: ready-made GPS-INS/servo links (SITL);
+    ``extra_payloads``: payloads beyond the built-in ones (give the same to :func:`build_context`)."""
     config, params, clock, bus = ctx.config, ctx.params, ctx.clock, ctx.bus
-    links = LinkManager(ctx)
+    payloads = PayloadRegistry(ctx, (*built_in_payloads(), *extra_payloads))
+    streams = {s.msg_id: (s.rate_hz, s.stream_group) for s in payloads.status_messages}
+    links = LinkManager(ctx, extra_streams=streams)
     commands = CommandRegistry()
-    payloads = PayloadService(ctx, commands)
+    payloads.register_commands(commands)
     model = load_companion_model(config)
     estimator = EstimatorStage(model, load_companion_ukf_settings(config))
     estimator.warm_up()  # load the compiled UKF step now, not on the first sample
     control = ControlSystem(params, clock, bus, model)
     profile = str(config["vehicle.profile"])
     mission = MissionCursor(MissionStore(config.state_dir() / "missions"), first_mission_seq(profile))
-    vehicle = Vehicle(ctx, mission, ModeManager(MODE_CLASSES), control, payloads.payloads)
-    output = ServoOutput(params, clock, bus, LoopStats())
-    output.servo_map.overrides_us = vehicle.servo_overrides_us  # DO_SET_SERVO / DO_SET_RELAY
+    actions = payloads.mission_actions
+    vehicle = Vehicle(ctx, mission, ModeManager(MODE_CLASSES), control, actions)
+    servo_map = ServoMap(params, payloads.servo_channels)
+    servo_map.overrides_us = vehicle.servo_overrides_us  # DO_SET_SERVO / DO_SET_RELAY (free outputs)
+    output = ServoOutput(servo_map, clock, bus, LoopStats())
     pipeline = Pipeline(bus=bus, estimator=estimator, model_error_user=control, modes=vehicle.update_mode,
                         output=output)
-    telemetry = Telemetry(ctx, vehicle, payloads.status_builders())
-    mavlink = MavlinkService(ctx, links, vehicle, commands, telemetry)
+    telemetry = Telemetry(ctx, vehicle, {s.msg_id: s.build for s in payloads.status_messages})
+    validator = MissionValidator({a.command: ItemRule(a.needs_position, a.check) for a in actions.values()})
+    mavlink = MavlinkService(ctx, links, vehicle, commands, telemetry, validator, servo_map)
+    hardware_io = HardwareIoService(ctx, pipeline, hardware, payloads.sentences)
     return Services(ctx=ctx, links=links, commands=commands, payloads=payloads, estimator=estimator,
                     control=control, vehicle=vehicle, pipeline=pipeline, mavlink=mavlink,
-                    hardware=HardwareIoService(ctx, pipeline, hardware))
+                    hardware=hardware_io)
 
 
 class ReadyBanner(BaseService):

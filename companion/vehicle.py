@@ -1,7 +1,8 @@
 """The vehicle: arming with pre-arm checks, home, the operator's targets, modes, mission progress.
 
 One :class:`Vehicle` per companion, built by :mod:`companion.runtime` from its collaborators
-(the :class:`~companion.modes.manager.ModeManager`, the mission cursor, the control system).
+(the :class:`~companion.modes.manager.ModeManager`, the mission cursor, the control system,
+the payloads' mission actions).
 The MAVLink services turn operator requests into calls here (``arm``, ``set_mode``,
 ``set_home``, ``set_current``); the vehicle is also the :class:`~companion.modes.host.ModeHost`
 its modes run against (``update_mode`` is the pipeline's modes stage).  Every refusal is a
@@ -12,8 +13,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable
-from typing import TYPE_CHECKING
+from collections.abc import Callable, Mapping
 
 from companion.app import Context
 from companion.control.manual_input import PilotInput, pilot_input
@@ -32,11 +32,9 @@ from companion.messages import (
 from companion.mission.cursor import MissionCursor, MissionState
 from companion.mission.items import MissionItem
 from companion.mission.store import MissionStore
+from companion.modes.auto_items import MissionAction
 from companion.modes.manager import ModeManager
 from companion.params import ParamStore
-
-if TYPE_CHECKING:
-    from companion.payloads.registry import Payloads
 
 __all__ = ["FORCE_MAGIC", "NAV_STALE_S", "MissionState", "PrearmCheck", "Vehicle", "first_mission_seq"]
 
@@ -60,14 +58,15 @@ class Vehicle:
     """Arming, home, targets, modes and mission progress of one boat."""
 
     def __init__(self, ctx: Context, mission: MissionCursor, modes: ModeManager, control: ControlSystem,
-                 payloads: Payloads | None = None) -> None:
+                 mission_actions: Mapping[int, MissionAction] | None = None) -> None:
         self.ctx = ctx
         self.profile: str = str(ctx.config["vehicle.profile"]) if "vehicle.profile" in ctx.config.values \
             else "ardurover"
         self.mission = mission
         self.modes = modes
         self.control = control
-        self.payloads = payloads
+        self.mission_actions: Mapping[int, MissionAction] = dict(mission_actions or {})
+        """The payloads' mission commands (AUTO runs them; upload checks them)."""
         self.armed = False
         self.home: Home | None = None
         self.guided_target: GuidedTarget | None = None

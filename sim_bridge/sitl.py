@@ -27,16 +27,18 @@ import contextlib
 import math
 import shutil
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import Any
 
+from companion.actuators.servo import ServoMap
 from companion.app import Context, Service
 from companion.clock import SimClock
 from companion.config import Config, default_config
 from companion.hardware import HardwareIoService, HardwareLinks
 from companion.messages import ActuatorCommand, NavState
+from companion.payloads.registry import PayloadDef
 from companion.pipeline import LoopStats, Pipeline, ServoOutput
 from companion.runtime import Services, build_companion, build_context
 from companion.transport import ByteLink, SerialLink, memory_pipe
@@ -92,7 +94,8 @@ class SitlHarness:
                  home: tuple[float, float] = (41.77, 123.43), full_stack: bool = False,
                  transport: str = "memory", config: Config | None = None,
                  params: dict[str, float] | None = None, state_dir: Path | None = None,
-                 speedup: float = 0.0) -> None:
+                 speedup: float = 0.0, extra_payloads: Sequence[PayloadDef] = ()) -> None:
+        """``extra_payloads``: payloads added to the built-in ones (full stack)."""
         if transport not in ("memory", "pty"):
             raise ValueError(f"transport must be 'memory' or 'pty', not {transport!r}")
         self._tmp: str | None = None
@@ -103,7 +106,8 @@ class SitlHarness:
         self.config = base.with_overrides({"vehicle.state_dir": str(state_dir), "sim.seed": seed,
                                            "sim.wind": wind, "sim.current": current, "sim.waves": waves})
         self.clock = SimClock(start_unix_time_s=START_UNIX_S)
-        self.ctx: Context = build_context(self.config, self.clock)
+        self.extra_payloads = tuple(extra_payloads)
+        self.ctx: Context = build_context(self.config, self.clock, self.extra_payloads)
         for name, value in (params or {}).items():
             self.ctx.params.set(name, value, persist=False)
         self.boat = SimulatedBoat(seed=seed, disturbances=spec_from_strings(wind, current, waves),
@@ -129,6 +133,16 @@ class SitlHarness:
         if self.full_stack:
             raise RuntimeError("drive() is for the hardware seam; the full stack runs its modes")
         self.driver.command = command
+
+    def set_servo(self, channel: int, pulse_us: int | None) -> None:
+        """Hardware seam: hold output ``channel`` (1-based) at ``pulse_us`` (``None`` releases it);
+        with the full stack the boat's and the payloads' outputs are not overridable."""
+        assert self.pipeline is not None, "use 'async with SitlHarness() as h'"
+        overrides = self.pipeline.output.servo_map.overrides_us
+        if pulse_us is None:
+            overrides.pop(channel, None)
+        else:
+            overrides[channel] = pulse_us
 
     @property
     def stats(self) -> LoopStats:
@@ -189,12 +203,12 @@ class SitlHarness:
         await self._sim_link.open()
         self.lockstep = Lockstep(self.boat, self.clock, self._sim_link, speedup=self.speedup)
         if self.full_stack:
-            self.services = build_companion(self.ctx, links)
+            self.services = build_companion(self.ctx, links, self.extra_payloads)
             self.pipeline, self.hardware = self.services.pipeline, self.services.hardware
             self._lifecycle = self.services.in_start_order()
         else:
             ctx = self.ctx
-            output = ServoOutput(ctx.params, ctx.clock, ctx.bus, LoopStats())
+            output = ServoOutput(ServoMap(ctx.params), ctx.clock, ctx.bus, LoopStats())
             self.pipeline = Pipeline(bus=ctx.bus, estimator=None, model_error_user=None,
                                      modes=self.driver.update, output=output)
             self.hardware = HardwareIoService(ctx, self.pipeline, links)

@@ -2,10 +2,12 @@
 
 The servo frame has :data:`~companion.actuators.servo.N_CHANNELS` outputs.  Most are owned by
 the autopilot and carry safety-critical functions (the ``USV_CH_*`` parameters): nozzle,
-throttle, ignition, RC/GCS selector, rope-launcher trigger, sampler pump and sampler valve.
-An operator override may never drive those: the launcher must stay behind its interlocks,
-the engine behind arming and the failsafes, the bottles behind the sample log.  Only the
-remaining *free* outputs (channel 2 with the default wiring) accept an override.
+throttle, ignition and RC/GCS selector (:data:`OWNED_CHANNEL_PARAMS`), and every output a
+payload declares (rope-launcher trigger, sampler pump and sampler valve; see
+:mod:`companion.payloads.registry`).  An operator override may never drive those: the launcher
+must stay behind its interlocks, the engine behind arming and the failsafes, the bottles behind
+the sample log.  Only the remaining *free* outputs (channel 2 with the default wiring) accept
+an override.
 
 Relays (DO_SET_RELAY) are on/off outputs on free channels too: relay ``n`` (0-based, as in
 MAVLink) drives the channel in parameter ``USV_RLY{n}_CH`` (0 = not wired; by default relay 0
@@ -17,6 +19,8 @@ channel became autopilot-owned after a parameter change).
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 from companion.params import ParamStore
 
 N_RELAYS = 4
@@ -25,19 +29,18 @@ N_RELAYS = 4
 OWNED_CHANNEL_PARAMS: tuple[tuple[str, int, str], ...] = (
     ("USV_CH_NOZZLE", 1, "nozzle (steering)"),
     ("USV_CH_THROTTLE", 3, "throttle"),
-    ("USV_CH_VALVE", 4, "sampler valve"),
     ("USV_CH_IGNITION", 5, "ignition"),
     ("USV_CH_SELECTOR", 6, "RC/GCS selector"),
-    ("USV_CH_LAUNCHER", 7, "launcher trigger"),
-    ("USV_CH_PUMP", 8, "sampler pump"),
 )
-"""Parameter, default channel and function of every autopilot-owned output."""
+"""Parameter, default channel and function of the boat's own outputs (payloads add theirs)."""
 
 
-def owned_channels(params: ParamStore) -> dict[int, str]:
-    """1-based channel -> function of every output the autopilot owns (never overridable)."""
+def owned_channels(params: ParamStore,
+                   payload_outputs: Iterable[tuple[str, int, str]] = ()) -> dict[int, str]:
+    """1-based channel -> function of every output the autopilot owns (never overridable):
+    the boat's own and ``payload_outputs`` (parameter, default channel, function)."""
     owned: dict[int, str] = {}
-    for name, default, function in OWNED_CHANNEL_PARAMS:
+    for name, default, function in (*OWNED_CHANNEL_PARAMS, *payload_outputs):
         channel = int(params.get_or(name, default))
         owned.setdefault(channel, function)
     return owned
@@ -48,9 +51,9 @@ def relay_channel(params: ParamStore, relay: int) -> int:
     return int(params.get_or(f"USV_RLY{relay}_CH", 0)) if 0 <= relay < N_RELAYS else 0
 
 
-def override_refusal(params: ParamStore, channel: int, n_channels: int) -> str | None:
+def override_refusal(owned: dict[int, str], channel: int, n_channels: int) -> str | None:
     """Why ``channel`` (1-based) cannot be overridden (short, for a STATUSTEXT: the owned
-    output's function, or "not wired"), or ``None`` if it is a free output."""
+    output's function from ``owned``, or "not wired"), or ``None`` if it is a free output."""
     if not 1 <= channel <= n_channels:
         return f"not wired (outputs 1-{n_channels})"
-    return owned_channels(params).get(channel)
+    return owned.get(channel)

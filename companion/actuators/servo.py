@@ -10,6 +10,7 @@ the frame whose ACK matches the sample it sent.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -45,6 +46,18 @@ def decode_frame(body: str) -> ServoFrame | None:
     return ServoFrame(parts[1], pulses)
 
 
+@dataclass(frozen=True)
+class ServoChannel:
+    """An output a payload drives: ``param`` names its channel (1-based, default ``default``)."""
+
+    param: str
+    default: int
+    function: str
+    """What the output does, for the operator ("launcher trigger")."""
+    pulse_us: Callable[[], int]
+    """The pulse the payload wants on it now (called for every servo frame)."""
+
+
 class _Resolved(NamedTuple):
     """The parameter values the mapping needs, read once per parameter change (speed)."""
 
@@ -61,24 +74,24 @@ class _Resolved(NamedTuple):
     sw_on: int
     ch_ignition: int
     ch_selector: int
-    ch_launcher: int
-    ch_pump: int
-    ch_valve: int
+    payload: tuple[tuple[int, Callable[[], int]], ...]
+    """0-based index and pulse source of every payload output."""
     owned: frozenset[int]
     """0-based indices of the autopilot-owned outputs (never overridden)."""
 
 
 class ServoMap:
-    """Maps an :class:`ActuatorCommand` to pulses using the USV_CH_*/USV_*_PWM_* parameters.
+    """Maps an :class:`ActuatorCommand` and the payloads' outputs to pulses (USV_CH_*/USV_*_PWM_*).
 
     Parameter values are cached and re-read after any parameter change (store listener).
     :attr:`overrides_us` (1-based channel -> pulse; DO_SET_SERVO / DO_SET_RELAY, see
     :mod:`companion.actuators.overrides`) drives free outputs only: an entry for an
-    autopilot-owned channel is ignored.
+    autopilot-owned channel (the boat's and the payloads') is ignored.
     """
 
-    def __init__(self, params: ParamStore) -> None:
+    def __init__(self, params: ParamStore, payload_channels: Sequence[ServoChannel] = ()) -> None:
         self.params = params
+        self.payload_channels = tuple(payload_channels)
         self._cache: _Resolved | None = None
         self.overrides_us: dict[int, int] = {}
         params.add_listener(lambda _n, _v: self._invalidate())
@@ -100,21 +113,18 @@ class ServoMap:
             thr_lo=lo, thr_span=hi - lo, ch_throttle=int(p("USV_CH_THROTTLE", 3)) - 1,
             sw_off=round(p("USV_SW_PWM_OFF", 1100)), sw_on=round(p("USV_SW_PWM_ON", 1900)),
             ch_ignition=int(p("USV_CH_IGNITION", 5)) - 1, ch_selector=int(p("USV_CH_SELECTOR", 6)) - 1,
-            ch_launcher=int(p("USV_CH_LAUNCHER", 7)) - 1, ch_pump=int(p("USV_CH_PUMP", 8)) - 1,
-            ch_valve=int(p("USV_CH_VALVE", 4)) - 1,
-            owned=frozenset(ch - 1 for ch in owned_channels(self.params)))
+            payload=tuple((int(p(ch.param, ch.default)) - 1, ch.pulse_us) for ch in self.payload_channels),
+            owned=frozenset(ch - 1 for ch in self.owned_channels()))
         return self._cache
 
-    def pulses(self, cmd: ActuatorCommand, launcher_pulse_us: int = 1900, launcher_safe_us: int = 1100,
-               valve_bottle: int = 0, *, launcher_trigger: bool | None = None,
-               pump_on: bool | None = None) -> tuple[int, ...]:
-        """Pulse widths of channels 1-8; ``launcher_trigger`` / ``pump_on`` (when given)
-        replace the command's own fields (the payloads' wishes merged in by the loop)."""
+    def owned_channels(self) -> dict[int, str]:
+        """1-based channel -> function of every autopilot-owned output (never overridable)."""
+        payload = ((ch.param, ch.default, ch.function) for ch in self.payload_channels)
+        return owned_channels(self.params, payload)
+
+    def pulses(self, cmd: ActuatorCommand) -> tuple[int, ...]:
+        """Pulse widths of channels 1-8: the command's, the payloads' outputs, the overrides."""
         c = self._cache or self._resolve()
-        if launcher_trigger is None:
-            launcher_trigger = cmd.launcher_trigger
-        if pump_on is None:
-            pump_on = cmd.pump_on
         out = [1500] * N_CHANNELS
         frac = max(-1.0, min(1.0, cmd.nozzle_rad / c.noz_max_rad))
         if c.noz_rev:
@@ -126,10 +136,8 @@ class ServoMap:
         off, on = c.sw_off, c.sw_on
         out[c.ch_ignition] = on if cmd.ignition_on else off
         out[c.ch_selector] = on if cmd.source == ControlSource.COMPANION else off
-        out[c.ch_launcher] = launcher_pulse_us if launcher_trigger else launcher_safe_us
-        out[c.ch_pump] = on if pump_on else off
-        bottle = max(0, min(4, valve_bottle)) if pump_on else 0
-        out[c.ch_valve] = 1000 + 200 * bottle
+        for index, payload_pulse_us in c.payload:
+            out[index] = payload_pulse_us()
         if self.overrides_us:
             for channel, pulse_us in self.overrides_us.items():
                 index = channel - 1

@@ -55,12 +55,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from companion.angles import wrap_pi
 from companion.control.actuator import Saturation
 from companion.control.am_speed import AmSpeedConfig, AmSpeedLaw
 from companion.control.pid import LowPass
 from companion.control.pid_family import HeadingLoopConfig, desired_turn_rate
 from companion.control.target import ControlOutput, ControlTarget, CrabEstimator
-from companion.guidance.geo import wrap_pi
 from companion.messages import NavState
 from companion.models.qlpv import QLPVModel
 

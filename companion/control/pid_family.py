@@ -14,10 +14,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from companion.angles import wrap_pi
 from companion.control.actuator import Saturation
 from companion.control.pid import Pid, PidGains
 from companion.control.target import ControlOutput, ControlTarget, CrabEstimator
-from companion.guidance.geo import wrap_pi
 from companion.messages import NavState
 
 

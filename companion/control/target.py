@@ -13,9 +13,9 @@ import math
 from dataclasses import dataclass
 from typing import Protocol
 
+from companion.angles import wrap_pi
 from companion.control.actuator import Saturation
 from companion.control.pid import LowPass
-from companion.guidance.geo import wrap_pi
 from companion.messages import NavState
 
 

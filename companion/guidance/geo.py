@@ -12,20 +12,16 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from companion.angles import wrap_2pi, wrap_pi
+
+__all__ = ["WGS84_A_M", "WGS84_E2", "LocalFrame", "distance_bearing", "distance_to_segment_m",
+           "valid_lat_lon", "wrap_2pi", "wrap_pi"]
+
 WGS84_A_M = 6378137.0
 """WGS-84 semi-major axis."""
 WGS84_E2 = 6.69437999014e-3
 """WGS-84 first eccentricity squared."""
 
-
-def wrap_pi(angle_rad: float) -> float:
-    """Wrap an angle to [-pi, pi)."""
-    return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
-
-
-def wrap_2pi(angle_rad: float) -> float:
-    """Wrap an angle to [0, 2*pi) (headings and courses, clockwise from north)."""
-    return angle_rad % (2.0 * math.pi)
 
 
 def valid_lat_lon(lat_deg: float, lon_deg: float) -> bool:

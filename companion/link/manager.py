@@ -3,7 +3,9 @@
 Configuration (``[links]``): ``udp_targets`` (QGroundControl 14550, MAVSDK 14540 by default),
 ``tcp_listen`` (5760), ``serial`` (radios) and ``tlog`` (one .tlog per link in
 ``<state_dir>/logs``).  Other services register message handlers on :attr:`LinkManager.dispatcher`
-and send with :meth:`LinkManager.broadcast` or a link's own ``send``.
+and send with :meth:`LinkManager.broadcast` or a link's own ``send``.  Every link starts with
+the same telemetry rates: the vehicle's (:data:`~companion.link.streams.DEFAULT_RATES_HZ`) plus
+the payloads' status messages (``extra_streams``).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from companion.app import BaseService, Context
+from companion.link import streams
 from companion.link.endpoint import Dispatcher, Link
 from companion.link.tlog import TlogWriter
 from companion.link.transports import SerialPort, TcpServer, UdpTarget
@@ -32,8 +35,15 @@ class LinkManager(BaseService):
 
     name = "mavlink-links"
 
-    def __init__(self, ctx: Context, *, system_id: int | None = None, component_id: int = 1) -> None:
+    def __init__(self, ctx: Context, *, system_id: int | None = None, component_id: int = 1,
+                 extra_streams: dict[int, tuple[float, int]] | None = None) -> None:
+        """``extra_streams``: message id -> (default rate Hz, REQUEST_DATA_STREAM group)."""
         self.ctx = ctx
+        self.stream_rates_hz = dict(streams.DEFAULT_RATES_HZ)
+        self.stream_groups = {group: tuple(ids) for group, ids in streams.DATA_STREAM_GROUPS.items()}
+        for msg_id, (rate_hz, group) in (extra_streams or {}).items():
+            self.stream_rates_hz[msg_id] = rate_hz
+            self.stream_groups[group] = (*self.stream_groups.get(group, ()), msg_id)
         self.system_id = int(system_id if system_id is not None else ctx.params.get("SYSID_THISMAV"))
         self.component_id = component_id
         self.dispatcher = Dispatcher()
@@ -52,7 +62,8 @@ class LinkManager(BaseService):
             safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
             tlog = TlogWriter(self._tlog_dir / f"{self._session}-{safe}.tlog")
         link = Link(name, write, clock=self.ctx.clock, dispatcher=self.dispatcher, system_id=self.system_id,
-                    component_id=self.component_id, tlog=tlog)
+                    component_id=self.component_id, tlog=tlog,
+                    rates=streams.StreamRates(self.stream_rates_hz, self.stream_groups))
         self.links.append(link)
         for listener in tuple(self.link_listeners):
             try:

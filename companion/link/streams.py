@@ -29,8 +29,6 @@ AUTOPILOT_VERSION = 148
 HOME_POSITION = 242
 EXTENDED_SYS_STATE = 245
 CURRENT_MODE = 436
-USV_LAUNCHER_STATUS = 43000
-USV_SAMPLER_STATUS = 43001
 USV_MODEL_STATUS = 43002
 
 MAX_RATE_HZ = 50.0
@@ -53,11 +51,10 @@ DEFAULT_RATES_HZ: dict[int, float] = {
     HOME_POSITION: 0.2,
     EXTENDED_SYS_STATE: 1.0,
     CURRENT_MODE: 1.0,
-    USV_LAUNCHER_STATUS: 1.0,
-    USV_SAMPLER_STATUS: 1.0,
     USV_MODEL_STATUS: 1.0,
 }
-"""Rates every new link starts with (roughly ArduPilot's SRx defaults for a telemetry radio)."""
+"""Rates every new link starts with (roughly ArduPilot's SRx defaults for a telemetry radio);
+payloads add their status messages (:class:`~companion.link.manager.LinkManager`)."""
 
 # REQUEST_DATA_STREAM groups (MAV_DATA_STREAM) as ArduPilot maps them.
 DATA_STREAM_GROUPS: dict[int, tuple[int, ...]] = {
@@ -68,8 +65,7 @@ DATA_STREAM_GROUPS: dict[int, tuple[int, ...]] = {
     6: (GLOBAL_POSITION_INT,),
     10: (ATTITUDE,),
     11: (VFR_HUD,),
-    12: (SYSTEM_TIME, BATTERY_STATUS, EXTENDED_SYS_STATE, USV_LAUNCHER_STATUS, USV_SAMPLER_STATUS,
-         USV_MODEL_STATUS),
+    12: (SYSTEM_TIME, BATTERY_STATUS, EXTENDED_SYS_STATE, USV_MODEL_STATUS),
 }
 DATA_STREAM_ALL = 0
 
@@ -77,8 +73,10 @@ DATA_STREAM_ALL = 0
 class StreamRates:
     """Message id -> send interval for one link, with drift-free due times."""
 
-    def __init__(self, defaults: dict[int, float] | None = None) -> None:
+    def __init__(self, defaults: dict[int, float] | None = None,
+                 groups: dict[int, tuple[int, ...]] | None = None) -> None:
         self._defaults_hz = dict(DEFAULT_RATES_HZ if defaults is None else defaults)
+        self._groups = DATA_STREAM_GROUPS if groups is None else groups
         self._interval_s: dict[int, float] = {m: 1.0 / hz for m, hz in self._defaults_hz.items() if hz > 0}
         self._next_s: dict[int, float] = {}
 
@@ -115,8 +113,8 @@ class StreamRates:
 
     def request_data_stream(self, stream_id: int, rate_hz: float, start: bool) -> None:
         """REQUEST_DATA_STREAM: set every message of the group (0 = all groups)."""
-        groups = DATA_STREAM_GROUPS.values() if stream_id == DATA_STREAM_ALL else (
-            DATA_STREAM_GROUPS.get(stream_id, ()),)
+        groups = self._groups.values() if stream_id == DATA_STREAM_ALL else (
+            self._groups.get(stream_id, ()),)
         for group in groups:
             for msg_id in group:
                 self.set_rate_hz(msg_id, rate_hz if start else 0.0)

@@ -75,10 +75,12 @@ class MissionService:
     """Serves the mission protocol on every link."""
 
     def __init__(self, ctx: Context, links: LinkManager, vehicle: Vehicle, *,
+                 validator: v.MissionValidator = v.BUILT_IN,
                  item_timeout_s: float = ITEM_TIMEOUT_S, max_retries: int = MAX_RETRIES) -> None:
         self.ctx = ctx
         self.links = links
         self.vehicle = vehicle
+        self.validator = validator
         self.store = vehicle.missions
         self.item_timeout_s = item_timeout_s
         self.max_retries = max_retries
@@ -148,7 +150,7 @@ class MissionService:
             return
         item = item_from_msg(msg).with_seq(seq)
         is_home = self.home_first and seq == 0 and mtype == MissionType.MISSION
-        problem = v.validate_item(item, home_item=is_home)
+        problem = self.validator.validate_item(item, home_item=is_home)
         if problem is not None:
             self._refuse(up, problem)
             return
@@ -157,7 +159,7 @@ class MissionService:
         if up.expected < up.count:
             self._request(up)
             return
-        problem = v.validate_plan(up.items, home_first=self.home_first)
+        problem = self.validator.validate_plan(up.items, home_first=self.home_first)
         if problem is not None:
             self._refuse(up, problem)
             return

@@ -14,6 +14,7 @@ import logging
 import math
 from typing import Any
 
+from companion.actuators.servo import ServoMap
 from companion.app import BaseService, Context
 from companion.clock import periodic
 from companion.link import streams
@@ -30,6 +31,7 @@ from companion.mavlink.param_service import ParamService
 from companion.mavlink.telemetry import Telemetry
 from companion.mavlink.vehicle_commands import VehicleCommands
 from companion.messages import GuidedTarget, ModeNumber, Severity, StatusText
+from companion.mission.validate import MissionValidator
 from companion.vehicle import Vehicle
 
 log = logging.getLogger(__name__)
@@ -52,15 +54,16 @@ class MavlinkService(BaseService):
     name = "mavlink"
 
     def __init__(self, ctx: Context, links: LinkManager, vehicle: Vehicle, commands: CommandRegistry,
-                 telemetry: Telemetry) -> None:
+                 telemetry: Telemetry, validator: MissionValidator, servo_map: ServoMap) -> None:
         self.ctx = ctx
         self.links = links
         self.vehicle = vehicle
         self.telemetry = telemetry
-        VehicleCommands(vehicle, ctx.params, ctx.clock, telemetry, links.system_id).register(commands)
+        handlers = VehicleCommands(vehicle, ctx.params, ctx.clock, telemetry, links.system_id, servo_map)
+        handlers.register(commands)
         self.commands = CommandService(ctx, links, self.vehicle, commands)
         self.params = ParamService(ctx, links, self.vehicle)
-        self.missions = MissionService(ctx, links, self.vehicle)
+        self.missions = MissionService(ctx, links, self.vehicle, validator=validator)
         self.ftp = FtpService(links)
         d = links.dispatcher
         d.on("REQUEST_DATA_STREAM", self._on_request_data_stream)

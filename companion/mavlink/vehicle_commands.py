@@ -12,7 +12,7 @@ import math
 from typing import Any
 
 from companion.actuators.overrides import N_RELAYS, override_refusal, relay_channel
-from companion.actuators.servo import N_CHANNELS
+from companion.actuators.servo import N_CHANNELS, ServoMap
 from companion.clock import Clock
 from companion.link.dialect import mav
 from companion.link.endpoint import Link
@@ -69,8 +69,10 @@ class VehicleCommands:
     """The built-in command handlers of one vehicle."""
 
     def __init__(self, vehicle: Vehicle, params: ParamStore, clock: Clock, telemetry: Telemetry,
-                 system_id: int) -> None:
+                 system_id: int, servo_map: ServoMap) -> None:
         self.vehicle = vehicle
+        self.servo_map = servo_map
+        """Which outputs are autopilot-owned (the boat's and the payloads')."""
         self.params = params
         self.clock = clock
         self.telemetry = telemetry
@@ -192,7 +194,7 @@ class VehicleCommands:
         if not _is_int(pwm) or not (pwm == 0 or SERVO_MIN_US <= pwm <= SERVO_MAX_US):
             return CommandResult.denied(
                 f"Set servo refused: {pwm:g} us not in {SERVO_MIN_US}..{SERVO_MAX_US}")
-        refusal = override_refusal(self.params, int(channel), N_CHANNELS)
+        refusal = override_refusal(self.servo_map.owned_channels(), int(channel), N_CHANNELS)
         if refusal is not None:
             return CommandResult.denied(f"Set servo {int(channel)} refused: {refusal}")
         overrides = self.vehicle.servo_overrides_us
@@ -213,7 +215,7 @@ class VehicleCommands:
         channel = relay_channel(self.params, relay)
         if channel == 0:
             return CommandResult.denied(f"Set relay {relay} refused: USV_RLY{relay}_CH is 0")
-        refusal = override_refusal(self.params, channel, N_CHANNELS)
+        refusal = override_refusal(self.servo_map.owned_channels(), channel, N_CHANNELS)
         if refusal is not None:
             return CommandResult.denied(f"Set relay {relay} refused: ch {channel} {refusal}")
         vehicle = self.vehicle

@@ -13,14 +13,15 @@ at the ground station instead of in the middle of a flood.  Checks:
 
 NaN in an optional parameter (e.g. yaw in param4 of a waypoint, which MAVSDK and QGC send)
 means "unchanged" as the MAVLink specification says, and is accepted.  Altitude is unused
-on a boat; a NaN altitude is accepted for the same reason.  Other subsystems add checks for
-their own commands with :func:`register_item_check` (payload mission items).
+on a boat; a NaN altitude is accepted for the same reason.  A vehicle validates with a
+:class:`MissionValidator` that also knows its payloads' mission commands and their checks;
+:func:`validate_item` / :func:`validate_plan` use the built-in commands only.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 from companion.mission import items as mi
@@ -88,20 +89,13 @@ _RALLY_COMMANDS: dict[int, bool] = {mi.CMD_NAV_RALLY_POINT: True}
 _COMMANDS_BY_TYPE = {MissionType.MISSION: _MISSION_COMMANDS, MissionType.FENCE: _FENCE_COMMANDS,
                      MissionType.RALLY: _RALLY_COMMANDS}
 
-_EXTRA_CHECKS: dict[int, list[ItemCheck]] = {}
 
+@dataclass(frozen=True, slots=True)
+class ItemRule:
+    """A mission command beyond the built-in ones: position needed, and an extra check."""
 
-def register_item_check(command: int, check: ItemCheck, *, needs_position: bool | None = None) -> None:
-    """Add a validation for mission items with ``command`` (and accept that command).
-
-    ``needs_position`` (default: keep the built-in setting, or ``True`` for new commands)
-    says whether the item must carry a valid latitude/longitude.
-    """
-    if needs_position is not None or command not in _MISSION_COMMANDS:
-        _MISSION_COMMANDS[command] = True if needs_position is None else needs_position
-    _EXTRA_CHECKS.setdefault(command, [])
-    if check not in _EXTRA_CHECKS[command]:
-        _EXTRA_CHECKS[command].append(check)
+    needs_position: bool
+    check: ItemCheck | None = None
 
 
 def _finite(value: float) -> bool:
@@ -150,50 +144,72 @@ def _check_params(item: MissionItem) -> ItemProblem | None:
     return None
 
 
-def validate_item(item: MissionItem, *, home_item: bool = False) -> ItemProblem | None:
-    """Check one item; ``None`` when it is fine.  ``home_item``: item 0 of an ArduPilot mission."""
-    if not 0 <= item.autocontinue <= 1 or not 0 <= item.current <= 2:
-        return ItemProblem(INVALID, f"item {item.seq}: current/autocontinue must be 0 or 1")
-    if home_item:
-        # ArduPilot ignores the content of item 0 (it is replaced by home); accept anything sane.
-        return None
-    try:
-        mtype = MissionType(item.mission_type)
-    except ValueError:
-        return ItemProblem(UNSUPPORTED, f"mission type {item.mission_type} is not supported")
-    table = _COMMANDS_BY_TYPE[mtype]
-    if item.command not in table:
-        return ItemProblem(UNSUPPORTED, f"item {item.seq}: command {item.command} is not supported "
-                                        f"in a {mtype.name.lower()} plan")
-    needs_position = table[item.command]
-    if needs_position:
-        problem = _check_position(item)
-    elif item.frame not in mi.GLOBAL_FRAMES | {mi.FRAME_MISSION}:
-        problem = ItemProblem(UNSUPPORTED_FRAME, f"item {item.seq}: frame {item.frame} is not supported")
-    else:
-        problem = None
-    problem = problem or _check_params(item)
-    if problem is None:
-        for check in _EXTRA_CHECKS.get(item.command, ()):
-            problem = check(item)
+class MissionValidator:
+    """Upload checks of one vehicle: the built-in commands plus ``extra`` (its payloads')."""
+
+    def __init__(self, extra: Mapping[int, ItemRule] | None = None) -> None:
+        self.extra = dict(extra or {})
+        self._mission_commands = {**_MISSION_COMMANDS,
+                                  **{c: rule.needs_position for c, rule in self.extra.items()}}
+
+    def validate_item(self, item: MissionItem, *, home_item: bool = False) -> ItemProblem | None:
+        """Check one item; ``None`` when it is fine.  ``home_item``: item 0 of an ArduPilot mission."""
+        if not 0 <= item.autocontinue <= 1 or not 0 <= item.current <= 2:
+            return ItemProblem(INVALID, f"item {item.seq}: current/autocontinue must be 0 or 1")
+        if home_item:
+            # ArduPilot ignores the content of item 0 (it is replaced by home); accept anything sane.
+            return None
+        try:
+            mtype = MissionType(item.mission_type)
+        except ValueError:
+            return ItemProblem(UNSUPPORTED, f"mission type {item.mission_type} is not supported")
+        table = self._mission_commands if mtype == MissionType.MISSION else _COMMANDS_BY_TYPE[mtype]
+        if item.command not in table:
+            return ItemProblem(UNSUPPORTED, f"item {item.seq}: command {item.command} is not supported "
+                                            f"in a {mtype.name.lower()} plan")
+        needs_position = table[item.command]
+        if needs_position:
+            problem = _check_position(item)
+        elif item.frame not in mi.GLOBAL_FRAMES | {mi.FRAME_MISSION}:
+            problem = ItemProblem(UNSUPPORTED_FRAME, f"item {item.seq}: frame {item.frame} is not supported")
+        else:
+            problem = None
+        problem = problem or _check_params(item)
+        rule = self.extra.get(item.command)
+        if problem is None and rule is not None and rule.check is not None:
+            problem = rule.check(item)
+        return problem
+
+    def validate_plan(self, plan: list[MissionItem], *, home_first: bool) -> ItemProblem | None:
+        """Check a whole plan: sequence numbers, capacity, every item, DO_JUMP targets."""
+        if not plan:
+            return None
+        mtype = plan[0].mission_type
+        if len(plan) > MAX_ITEMS.get(mtype, 0):
+            capacity = MAX_ITEMS.get(mtype, 0)
+            return ItemProblem(NO_SPACE, f"{len(plan)} items exceed the capacity of {capacity}")
+        for index, item in enumerate(plan):
+            if item.seq != index:
+                return ItemProblem(INVALID_SEQUENCE, f"item {index} arrived with seq {item.seq}")
+            problem = self.validate_item(item, home_item=home_first and index == 0
+                                         and mtype == MissionType.MISSION)
             if problem is not None:
-                break
-    return problem
+                return problem
+            if item.command == mi.CMD_DO_JUMP and int(item.param1) >= len(plan):
+                return ItemProblem(INVALID_PARAM1,
+                                   f"item {index}: jump target {int(item.param1)} does not exist")
+        return None
+
+
+BUILT_IN = MissionValidator()
+"""The built-in commands only (no payload checks)."""
+
+
+def validate_item(item: MissionItem, *, home_item: bool = False) -> ItemProblem | None:
+    """:meth:`MissionValidator.validate_item` with the built-in commands."""
+    return BUILT_IN.validate_item(item, home_item=home_item)
 
 
 def validate_plan(plan: list[MissionItem], *, home_first: bool) -> ItemProblem | None:
-    """Check a whole plan: sequence numbers, capacity, every item, DO_JUMP targets."""
-    if not plan:
-        return None
-    mtype = plan[0].mission_type
-    if len(plan) > MAX_ITEMS.get(mtype, 0):
-        return ItemProblem(NO_SPACE, f"{len(plan)} items exceed the capacity of {MAX_ITEMS.get(mtype, 0)}")
-    for index, item in enumerate(plan):
-        if item.seq != index:
-            return ItemProblem(INVALID_SEQUENCE, f"item {index} arrived with seq {item.seq}")
-        problem = validate_item(item, home_item=home_first and index == 0 and mtype == MissionType.MISSION)
-        if problem is not None:
-            return problem
-        if item.command == mi.CMD_DO_JUMP and int(item.param1) >= len(plan):
-            return ItemProblem(INVALID_PARAM1, f"item {index}: jump target {int(item.param1)} does not exist")
-    return None
+    """:meth:`MissionValidator.validate_plan` with the built-in commands."""
+    return BUILT_IN.validate_plan(plan, home_first=home_first)

@@ -2,13 +2,15 @@
 
 Modes never see the vehicle's internals or the MAVLink side; they get a host that offers the
 navigation solution, the operator's targets (home, guided point, speed override), the mission
-cursor (AUTO), pilot input (MANUAL, CRUISE), the control system that turns targets into an
-actuator command, and a few requests (change mode, set home, announce).
+cursor and the payloads' mission actions (AUTO), pilot input (MANUAL, CRUISE), the control
+system that turns targets into an actuator command, and a few requests (change mode, set home,
+announce).
 :class:`companion.vehicle.Vehicle` implements it.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Protocol
 
 from companion.control.manual_input import PilotInput
@@ -18,7 +20,7 @@ from companion.mission.cursor import MissionCursor
 from companion.params import ParamStore
 
 if TYPE_CHECKING:
-    from companion.payloads.registry import Payloads
+    from companion.modes.auto_items import MissionAction
 
 
 class ModeHost(Protocol):
@@ -40,7 +42,9 @@ class ModeHost(Protocol):
         ...
 
     @property
-    def payloads(self) -> Payloads | None: ...
+    def mission_actions(self) -> Mapping[int, MissionAction]:
+        """The payloads' mission commands for AUTO (sample here, launch at ...)."""
+        ...
 
     @property
     def armed(self) -> bool: ...

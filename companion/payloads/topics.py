@@ -2,9 +2,10 @@
 
 ``payload_sensors`` (:class:`PayloadSensors`) is published by the sensor driver that parses
 the boat's payload sentence (cylinder pressure, bottle levels; in SITL the simulator sends
-the same sentence).  ``payload_cmd`` (:class:`PayloadCommand`) is published by the
-payloads; the actuator output stage merges it into the servo frame (see
-:func:`merge_into_actuator_command` for the fields of :class:`~companion.messages.ActuatorCommand`).
+the same sentence).  ``payload_cmd`` (:class:`PayloadCommand`) holds what the launcher and the
+sampler want from their outputs (:class:`PayloadOutputs`); their servo channels
+(:mod:`companion.payloads.launcher`, :mod:`companion.payloads.sampler`) read it for every frame,
+observers (logs, tests) see it on the bus.
 """
 
 from __future__ import annotations
@@ -13,7 +14,10 @@ from dataclasses import dataclass, replace
 
 from companion.bus import Bus
 from companion.clock import Clock
-from companion.messages import ActuatorCommand
+from companion.messages import PayloadSensors
+
+__all__ = ["BOTTLE_COUNT", "PAYLOAD_CMD_TOPIC", "PAYLOAD_SENSORS_TOPIC", "PayloadCommand", "PayloadOutputs",
+           "PayloadSensors"]
 
 BOTTLE_COUNT = 4
 """Chapter section 4.2: four sampling bottles and one pump."""
@@ -21,14 +25,6 @@ BOTTLE_COUNT = 4
 PAYLOAD_SENSORS_TOPIC = "payload_sensors"
 PAYLOAD_CMD_TOPIC = "payload_cmd"
 
-
-@dataclass(frozen=True, slots=True)
-class PayloadSensors:
-    """Payload sensor readings: cylinder pressure and the water volume in each bottle."""
-
-    t_s: float
-    cylinder_pressure_mpa: float
-    bottle_volume_ml: tuple[float, ...] = (0.0,) * BOTTLE_COUNT
 
 
 @dataclass(frozen=True, slots=True)
@@ -44,13 +40,6 @@ class PayloadCommand:
     trigger_pulse_us: int = 1100
     pump_on: bool = False
     valve_bottle: int = 0
-
-
-def merge_into_actuator_command(cmd: ActuatorCommand, payload: PayloadCommand | None) -> ActuatorCommand:
-    """The controller's command with the payload fields set from ``payload`` (None: both off)."""
-    if payload is None:
-        return replace(cmd, launcher_trigger=False, pump_on=False)
-    return replace(cmd, launcher_trigger=payload.launcher_trigger, pump_on=payload.pump_on)
 
 
 class PayloadOutputs:

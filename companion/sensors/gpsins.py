@@ -10,18 +10,19 @@ Sentences understood (NMEA framing and XOR checksum, :mod:`companion.sensors.nme
 * ``$PUSVP,PRESSURE_MPA,SHOTS,ML1,ML2,ML3,ML4,PUMP,VALVE`` -> ``payload_sensors``;
 * ``$PUSVRC,SOURCE,CH1..CH8`` -> :class:`~companion.messages.RcInput` on ``rc_in``.
 
-Bad checksums, garbage and malformed fields are counted in :attr:`GpsInsParser.errors`
-and dropped; nothing raises.
+A payload may declare more sentences of the box (``extra_sentences``: name -> handler of the
+fields).  Bad checksums, garbage and malformed fields are counted in
+:attr:`GpsInsParser.errors` and dropped; nothing raises.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 
 from companion.bus import Bus
 from companion.clock import Clock
-from companion.messages import ControlSource, EngineState, FixType, NavState, RcInput
+from companion.messages import ControlSource, EngineState, FixType, NavState, PayloadSensors, RcInput
 from companion.sensors.nmea import LineFramer
 
 NavCallback = Callable[[NavState, str], object]
@@ -31,9 +32,8 @@ NavCallback = Callable[[NavState, str], object]
 class GpsInsParser:
     """Feeds bytes, publishes engine/payload/RC messages, hands nav samples to ``on_nav``."""
 
-    def __init__(self, clock: Clock, bus: Bus, on_nav: NavCallback) -> None:
-        from companion.payloads.topics import PAYLOAD_SENSORS_TOPIC, PayloadSensors
-
+    def __init__(self, clock: Clock, bus: Bus, on_nav: NavCallback,
+                 extra_sentences: Mapping[str, Callable[[list[str]], None]] | None = None) -> None:
         self.clock = clock
         self.on_nav = on_nav
         self.framer = LineFramer()
@@ -42,12 +42,14 @@ class GpsInsParser:
         self._gyro_z_degps = 0.0
         self._engine = bus.topic("engine", EngineState)
         self._rc = bus.topic("rc_in", RcInput)
-        self._payload = bus.topic(PAYLOAD_SENSORS_TOPIC, PayloadSensors)
+        self._payload = bus.topic("payload_sensors", PayloadSensors)
         self._payload_type = PayloadSensors
         self._handlers: dict[str, Callable[[list[str]], None]] = {
             "GPFPD": self._gpfpd, "GTIMU": self._gtimu, "PUSVE": self._pusve,
             "PUSVP": self._pusvp, "PUSVRC": self._pusvrc,
         }
+        for name, handler in (extra_sentences or {}).items():
+            self._handlers.setdefault(name, handler)
 
     @property
     def errors(self) -> int:

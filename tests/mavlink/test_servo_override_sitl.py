@@ -9,14 +9,15 @@ launcher trigger, pump) are refused with the function's name and the frame does 
 from __future__ import annotations
 
 import asyncio
+from pathlib import Path
 
 import pytest
 
 from companion.actuators.servo import ServoMap
 from companion.link.dialect import mav
 from companion.messages import ActuatorCommand
-from companion.param_table import all_param_defs
-from companion.params import ParamStore
+from companion.payloads.registry import PayloadRegistry, built_in_payloads
+from tests.mavlink.helpers import make_ctx
 from tests.mavlink.sitl_gcs import run_until_done, sitl_with_gcs
 
 pytestmark = pytest.mark.integration
@@ -81,9 +82,10 @@ async def test_relay_rewired_to_launcher_is_refused() -> None:
         assert h.boat.pulses[6] == 1100 and h.launcher.events == []
 
 
-def test_servo_map_drops_override_when_channel_becomes_owned() -> None:
-    params = ParamStore(all_param_defs())
-    servo_map = ServoMap(params)
+def test_servo_map_drops_override_when_channel_becomes_owned(tmp_path: Path) -> None:
+    ctx = make_ctx(tmp_path)
+    params = ctx.params
+    servo_map = ServoMap(params, PayloadRegistry(ctx, built_in_payloads()).servo_channels)
     servo_map.overrides_us = {2: 1800}
     cmd = ActuatorCommand(t_s=0.0)
     assert servo_map.pulses(cmd)[1] == 1800

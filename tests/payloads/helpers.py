@@ -11,8 +11,9 @@ from companion.clock import SimClock
 from companion.config import default_config
 from companion.messages import ControlSource, NavState, RcInput, VehicleStatus
 from companion.params import ParamStore
-from companion.payloads.params import PARAMS
+from companion.payloads.launcher import PARAMS as LAUNCHER_PARAMS
 from companion.payloads.samplelog import SampleLog
+from companion.payloads.sampler import PARAMS as SAMPLER_PARAMS
 from companion.payloads.topics import PAYLOAD_SENSORS_TOPIC, PayloadCommand, PayloadOutputs, PayloadSensors
 
 LAT0, LON0 = 41.77, 123.43
@@ -20,7 +21,8 @@ LAT0, LON0 = 41.77, 123.43
 
 def make_ctx() -> Context:
     clock = SimClock(start_unix_time_s=1_700_000_000.0)
-    return Context(config=default_config(), clock=clock, bus=Bus(), params=ParamStore(PARAMS))
+    params = ParamStore(LAUNCHER_PARAMS + SAMPLER_PARAMS)
+    return Context(config=default_config(), clock=clock, bus=Bus(), params=params)
 
 
 class World:

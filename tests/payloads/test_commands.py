@@ -1,4 +1,5 @@
-"""The payload MAVLink command handlers through the vehicle's command registry (no link)."""
+"""The payload MAVLink command handlers through the vehicle's command registry (no link),
+registered from the payload registry of the built-in payloads."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ import pytest
 
 from companion.mavlink.commands import MAV_RESULT, CommandRegistry, CommandRequest
 from companion.messages import ControlSource
-from companion.payloads.service import PayloadService, launcher_status_message, sampler_status_message
+from companion.payloads.registry import PayloadRegistry, built_in_payloads
 from mavlink_dialect import UsvCmd, usv
 
 from .helpers import World, make_ctx
@@ -23,9 +24,15 @@ def world(tmp_path) -> World:
     ctx = dataclasses.replace(ctx, config=ctx.config.with_overrides(state))
     w = World(ctx, tmp_path)
     w.registry = CommandRegistry()  # type: ignore[attr-defined]
-    w.service = PayloadService(ctx, w.registry)  # type: ignore[attr-defined]
-    w.outputs = w.service.payloads.outputs  # type: ignore[attr-defined]
+    w.service = PayloadRegistry(ctx, built_in_payloads())  # type: ignore[attr-defined]
+    w.service.register_commands(w.registry)  # type: ignore[attr-defined]
+    w.outputs = w.service.outputs  # type: ignore[attr-defined]
     return w
+
+
+def _status(world: World, msg_id: int, time_boot_ms: int):
+    status = next(s for s in world.service.status_messages if s.msg_id == msg_id)  # type: ignore[attr-defined]
+    return status.build(time_boot_ms)
 
 
 def _cmd(command: int, *params: float, progress: list[int] | None = None) -> CommandRequest:
@@ -52,11 +59,11 @@ async def test_arm_fire_sequence_and_status_messages(world: World) -> None:
     assert (await _run(world, _cmd(UsvCmd.LAUNCHER_FIRE))).result == MAV_RESULT.DENIED
     res = await _run(world, _cmd(UsvCmd.LAUNCHER_ARM, 1))
     assert res.result == MAV_RESULT.ACCEPTED and "ARMED" in res.reason
-    msg = launcher_status_message(world.service.payloads, 1000)
+    msg = _status(world, usv.MAVLINK_MSG_ID_USV_LAUNCHER_STATUS, 1000)
     assert msg.state == usv.USV_LAUNCHER_STATE_ARMED and msg.interlocks == 0x1F and msg.shots_left == 1
     res = await _run(world, _cmd(UsvCmd.LAUNCHER_FIRE))
     assert res.result == MAV_RESULT.ACCEPTED and res.reason.startswith("launcher: FIRED")
-    msg = launcher_status_message(world.service.payloads, 2000)
+    msg = _status(world, usv.MAVLINK_MSG_ID_USV_LAUNCHER_STATUS, 2000)
     assert msg.state == usv.USV_LAUNCHER_STATE_EMPTY and msg.last_launch_time_unix_usec > 0
     assert msg.last_launch_heading == round(math.degrees(0.5) * 100)
     msg.pack(usv.MAVLink(None))
@@ -78,7 +85,7 @@ async def test_sample_command_reports_progress_then_result(world: World) -> None
     res = await _run(world, _cmd(UsvCmd.SAMPLE, 0, 5.0, progress=progress), seconds=7.0)
     assert res.result == MAV_RESULT.ACCEPTED and "bottle 1 full" in res.reason
     assert len(progress) >= 3 and progress == sorted(progress) and progress[-1] < 100
-    msg = sampler_status_message(world.service.payloads, 0)
+    msg = _status(world, usv.MAVLINK_MSG_ID_USV_SAMPLER_STATUS, 0)
     assert list(msg.bottle_state) == [usv.USV_BOTTLE_STATE_FULL, 0, 0, 0] and msg.last_sample_bottle == 1
 
 

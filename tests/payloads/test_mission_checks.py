@@ -11,7 +11,10 @@ from companion.link.dialect import mav
 from companion.mission import items as mi
 from companion.mission import validate as v
 from companion.mission.items import MissionItem
-from companion.payloads.mission_checks import register_mission_checks
+from companion.mission.validate import ItemRule, MissionValidator
+from companion.payloads.launcher import PAYLOAD as LAUNCHER
+from companion.payloads.registry import PayloadRegistry
+from companion.payloads.sampler import PAYLOAD as SAMPLER
 from mavlink_dialect import UsvCmd
 from tests.mavlink.sitl_gcs import run_until_done, sitl_with_gcs
 from tests.mavlink.test_params_missions import download, upload
@@ -27,8 +30,16 @@ def _item(command: int, p1: float = 0.0, p2: float = 0.0, p3: float = 0.0, p4: f
 
 
 @pytest.fixture
-def _checks() -> None:
-    register_mission_checks()
+def validator(tmp_path) -> MissionValidator:
+    """The upload checks of a vehicle with the launcher and the sampler (their mission actions)."""
+    import dataclasses
+
+    from tests.mavlink.helpers import make_ctx
+
+    ctx = make_ctx()
+    ctx = dataclasses.replace(ctx, config=ctx.config.with_overrides({"vehicle.state_dir": str(tmp_path)}))
+    actions = PayloadRegistry(ctx, (LAUNCHER, SAMPLER)).mission_actions
+    return MissionValidator({c: ItemRule(a.needs_position, a.check) for c, a in actions.items()})
 
 
 @pytest.mark.parametrize("item", [
@@ -36,9 +47,8 @@ def _checks() -> None:
     _item(UsvCmd.NAV_SAMPLE_HERE, NAN, NAN, NAN, NAN), _item(UsvCmd.NAV_LAUNCH_AT, NAN),
     _item(UsvCmd.NAV_LAUNCH_AT, 359.5, 5.0), _item(UsvCmd.NAV_LAUNCH_AT, 0.0),
 ])
-@pytest.mark.usefixtures("_checks")
-def test_good_payload_items_accepted(item: MissionItem) -> None:
-    assert v.validate_item(item) is None
+def test_good_payload_items_accepted(item: MissionItem, validator: MissionValidator) -> None:
+    assert validator.validate_item(item) is None
 
 
 @pytest.mark.parametrize("item,code", [
@@ -60,9 +70,9 @@ def test_good_payload_items_accepted(item: MissionItem) -> None:
     (_item(UsvCmd.NAV_LAUNCH_AT, NAN, -1.0), v.INVALID_PARAM2),
     (_item(UsvCmd.NAV_LAUNCH_AT, NAN, 1e5), v.INVALID_PARAM2),
 ])
-@pytest.mark.usefixtures("_checks")
-def test_bad_payload_items_refused_with_code(item: MissionItem, code: int) -> None:
-    problem = v.validate_item(item)
+def test_bad_payload_items_refused_with_code(item: MissionItem, code: int,
+                                            validator: MissionValidator) -> None:
+    problem = validator.validate_item(item)
     assert problem is not None and problem.code == code, problem
 
 

@@ -45,7 +45,7 @@ async def test_four_sample_items_fill_four_bottles_within_2_5_m_and_a_fifth_is_r
         await h.run_until(lambda: vehicle.mission_state == MissionState.COMPLETE, 400.0)
         assert vehicle.mission_state == MissionState.COMPLETE, (reached, texts[-10:])
 
-        payloads = h.services.payloads.payloads
+        payloads = h.services.payloads
         samples = payloads.samplelog.samples("complete")
         assert [s.bottle for s in samples] == [1, 2, 3, 4]
         assert [s.mission_seq for s in samples] == [1, 2, 3, 4]

@@ -7,7 +7,8 @@ import math
 import pytest
 
 from companion.messages import ActuatorCommand, ControlSource, NavState, ServoOutputs
-from companion.payloads.topics import PAYLOAD_CMD_TOPIC, PayloadCommand, PayloadSensors
+from companion.payloads.topics import PayloadSensors
+from sim_bridge.simboat import CH_LAUNCHER, CH_PUMP, CH_VALVE
 from sim_bridge.sitl import SitlHarness
 
 
@@ -91,16 +92,15 @@ async def test_rc_override_takes_the_boat_away_from_the_companion() -> None:
 
 
 async def test_launcher_fires_on_a_held_trigger_pulse_and_pressure_drops() -> None:
-    async with SitlHarness(psi0_deg=90.0) as h:
-        cmds = h.ctx.bus.topic(PAYLOAD_CMD_TOPIC, PayloadCommand)
+    async with SitlHarness(psi0_deg=90.0) as h:  # the seam: no payloads, their outputs are free
         await h.run_for(0.5)
         first = h.ctx.bus.topic("payload_sensors", PayloadSensors).latest()
         assert first is not None and first.cylinder_pressure_mpa == 30.0
-        cmds.publish(PayloadCommand(h.clock.now_s(), launcher_trigger=True, trigger_pulse_us=1900))
+        h.set_servo(CH_LAUNCHER + 1, 1900)
         await h.run_for(0.1)
         assert h.launcher.events == []  # too short a pulse
         await h.run_for(0.5)
-        cmds.publish(PayloadCommand(h.clock.now_s()))
+        h.set_servo(CH_LAUNCHER + 1, 1100)
         await h.run_for(6.0)
         [ev] = h.launcher.events
         assert ev.bearing_rad == pytest.approx(math.pi / 2, abs=0.01) and 100 < ev.range_m <= 150
@@ -112,10 +112,10 @@ async def test_launcher_fires_on_a_held_trigger_pulse_and_pressure_drops() -> No
 
 async def test_sampler_fills_the_selected_bottle_while_the_pump_runs() -> None:
     async with SitlHarness() as h:
-        cmds = h.ctx.bus.topic(PAYLOAD_CMD_TOPIC, PayloadCommand)
-        cmds.publish(PayloadCommand(0.0, pump_on=True, valve_bottle=3))
+        h.set_servo(CH_VALVE + 1, 1600)  # bottle 3
+        h.set_servo(CH_PUMP + 1, 1900)
         await h.run_for(10.0)
-        cmds.publish(PayloadCommand(h.clock.now_s()))
+        h.set_servo(CH_PUMP + 1, 1100)
         await h.run_for(1.0)
         b = h.sampler.bottles_ml
         assert b[2] == pytest.approx(250.0, rel=0.05) and b[0] == b[1] == b[3] == 0.0

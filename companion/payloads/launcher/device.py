@@ -65,6 +65,7 @@ class RopeLauncher:
         self.firing = False
         self.shots_left = ctx.params.get_int("USV_LNCH_SHOTS")
         self.last_launch: LaunchRecord | None = None
+        self._safe_us: int | None = None
         if samplelog is not None and (launches := samplelog.launches()):
             self.last_launch = launches[-1]
         ctx.params.add_listener(self._on_param)
@@ -74,6 +75,8 @@ class RopeLauncher:
 
     # -- inputs -------------------------------------------------------------------------------
     def _on_param(self, name: str, value: float) -> None:
+        if name == "USV_LNCH_SAFE_US":
+            self._safe_us = None
         if name == "USV_LNCH_SHOTS":
             self.shots_left = int(value)
             log.info("launcher reloaded: %d shot(s)", self.shots_left)
@@ -90,6 +93,12 @@ class RopeLauncher:
         """The vehicle's arming state as it last published it (``vehicle_status``)."""
         status = self.ctx.bus.topic("vehicle_status", VehicleStatus).latest()
         return bool(status and status.armed)
+
+    def safe_pulse_us(self) -> int:
+        """The trigger servo's safe pulse (USV_LNCH_SAFE_US, read once per change)."""
+        if self._safe_us is None:
+            self._safe_us = round(self.ctx.params.get_or("USV_LNCH_SAFE_US", 1100))
+        return self._safe_us
 
     def pressure_mpa(self) -> float | None:
         """The latest fresh cylinder pressure, or None if unknown/stale."""

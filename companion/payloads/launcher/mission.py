@@ -1,0 +1,130 @@
+"""USV_CMD_NAV_LAUNCH_AT (31000): "fire the rope launcher at a point", in AUTO and at upload.
+
+param1 bearing (deg; NaN: keep the heading on arrival), param2 hold time (s; 0/NaN:
+USV_LNCH_HOLD_S), param5/6 the point.  The upload check refuses a bearing outside [0, 360]
+(INVALID_PARAM1), a hold outside USV_LNCH_HOLD_S's range (INVALID_PARAM2) and coordinates off
+the globe (INVALID_PARAM5_X / 6_Y).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+
+from companion.control.target import ControlTarget
+from companion.guidance.geo import LocalFrame, wrap_pi
+from companion.messages import NavState, Severity
+from companion.mission import validate as v
+from companion.mission.items import MissionItem
+from companion.modes.auto_items import AutoRun, NavItem, Phase
+from companion.modes.navigation import StationTask
+from companion.payloads.launcher.device import RopeLauncher
+from companion.payloads.launcher.params import PARAMS
+from companion.payloads.mission_checks import check_coordinates, in_range, is_default, param_range
+from companion.payloads.registry import PayloadEnv
+
+LAUNCH_MAX_DIST_M = 8.0
+"""Farther than this from the launch point, the boat goes back to it before turning to fire."""
+LAUNCH_MAX_SPEED_MPS = 1.8
+"""'Stopped' for a water jet holding a heading: steerage way is about 1.5 m/s in SITL."""
+
+
+def check_launch_at(item: MissionItem) -> v.ItemProblem | None:
+    """USV_CMD_NAV_LAUNCH_AT: bearing, hold time, coordinates."""
+    s = item.seq
+    bearing = item.param1
+    if not math.isnan(bearing) and not (math.isfinite(bearing) and 0.0 <= bearing <= 360.0):
+        return v.ItemProblem(v.INVALID_PARAM1, f"item {s}: bearing {bearing:g} deg not in 0-360 (NaN = keep)")
+    hold = param_range(PARAMS, "USV_LNCH_HOLD_S")
+    if not is_default(item.param2) and not in_range(item.param2, hold):
+        return v.ItemProblem(v.INVALID_PARAM2,
+                             f"item {s}: hold {item.param2:g} s not in {hold[0]:g}-{hold[1]:g} s")
+    return check_coordinates(item)
+
+
+async def mission_fire(launcher: RopeLauncher, env: PayloadEnv, mission_seq: int) -> str | None:
+    """Arm and fire for a mission item (the uploaded and started item is the operator's explicit
+    intent; every physical interlock still applies); the refusal (announced) or None when fired."""
+    reason = launcher.arm(env.ctx.params.get("USV_LNCH_ARM_S"))
+    if reason is None:
+        reason = await launcher.fire(mission_seq=mission_seq)
+    if reason is not None:
+        env.announce(reason, Severity.WARNING)
+    else:
+        last = launcher.last_launch
+        heading = f" hdg {last.heading_deg:.0f}" if last and last.heading_deg is not None else ""
+        env.announce(f"launcher: FIRED{heading}", Severity.WARNING)
+    return reason
+
+
+class _HeadingTask:
+    """Point the bow at ``heading_rad`` at ``speed_mps`` while staying near the launch point."""
+
+    def __init__(self, heading_rad: float, inner: StationTask, speed_mps: float) -> None:
+        self.heading_rad = heading_rad
+        self.speed_mps = speed_mps
+        self.inner = inner
+        self.frame: LocalFrame = inner.frame
+        self.point = inner.point
+        self.distance_m = 0.0
+        self.cross_track_m = 0.0
+
+    def step(self, nav: NavState, dt_s: float) -> ControlTarget:
+        self.inner.step(nav, dt_s)
+        self.distance_m = self.inner.distance_m
+        return ControlTarget(self.heading_rad, self.speed_mps, is_heading=True)
+
+
+class LaunchAtItem(NavItem):
+    """Go to the point, bow on the bearing, slowed to steerage way, hold, fire, go on.
+
+    A water jet cannot reverse and needs thrust to steer, so "stop" means the slowest speed at
+    which it still holds a heading: the controller is asked for zero speed on the bearing and the
+    launcher fires once the bow has stayed within ``USV_LNCH_HDG_DEG`` at no more than
+    :data:`LAUNCH_MAX_SPEED_MPS` for the hold time.
+    """
+
+    def __init__(self, run: AutoRun, item: MissionItem, launcher: RopeLauncher, env: PayloadEnv) -> None:
+        super().__init__(run, item)
+        self.launcher = launcher
+        self.env = env
+        self.bearing_rad = 0.0
+        self.steer: _HeadingTask | None = None
+        self.fire: asyncio.Task[str | None] | None = None
+
+    def arrive(self, nav: NavState) -> bool:
+        run = self.run
+        run.phase = Phase.ACTION
+        p1 = self.item.param1
+        self.bearing_rad = math.radians(p1) if math.isfinite(p1) else nav.heading_rad
+        station = StationTask(run.host.params, self.point, self.bearing_rad)
+        run.task = station
+        self.steer = _HeadingTask(self.bearing_rad, station, speed_mps=0.0)
+        return False
+
+    def hold(self, nav: NavState) -> bool:
+        if self.fire is not None:
+            return self.fire.done()
+        run, params = self.run, self.run.host.params
+        assert self.steer is not None
+        err = abs(wrap_pi(self.bearing_rad - nav.heading_rad))
+        hold = self.item.param2 if self.item.param2 > 0 else params.get_or("USV_LNCH_HOLD_S", 3.0)
+        station = self.steer.inner
+        if station.distance_m > LAUNCH_MAX_DIST_M:
+            run.since_s = nav.t_s  # carried off the point while turning: station-keep back to it
+            run.task = station
+            return False
+        run.task = self.steer  # steer for the bearing asking for zero speed: only steerage way
+        tolerance_rad = math.radians(params.get_or("USV_LNCH_HDG_DEG", 10.0))
+        if err > tolerance_rad or nav.speed_over_ground_mps > LAUNCH_MAX_SPEED_MPS:
+            run.since_s = nav.t_s
+            return False
+        if nav.t_s - run.since_s < hold:
+            return False
+        fire = mission_fire(self.launcher, self.env, self.item.seq)
+        self.fire = asyncio.get_running_loop().create_task(fire)
+        return False
+
+    def cancel(self) -> None:
+        if self.fire is not None and not self.fire.done():
+            self.fire.cancel()
