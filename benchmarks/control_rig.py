@@ -25,11 +25,11 @@ from companion.control.params import (
 from companion.control.params import PARAMS as CONTROL_PARAMS
 from companion.control.pid_family import PidController
 from companion.control.target import ControlOutput, ControlTarget, CourseSpeedController
-from companion.estimation.ukf import make_ukf
 from companion.guidance.geo import LocalFrame
 from companion.guidance.params import PARAMS as GUIDANCE_PARAMS
 from companion.messages import NavState
 from companion.models.qlpv import QLPVModel
+from companion.models.ukf import make_ukf
 from companion.params import ParamStore
 from sim_bridge.disturbances import DisturbanceSpec
 from sim_bridge.plant import BoatPlant

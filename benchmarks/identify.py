@@ -20,11 +20,11 @@ import time
 from dataclasses import replace
 from typing import Any
 
-from companion.estimation.ukf import UKFSettings
 from companion.models.base import DOF_NAMES
 from companion.models.logs import Record, record_from_columns
 from companion.models.noise_fit import fit_ukf_noise
 from companion.models.pipeline import JTable, identify_models, ratios, validate
+from companion.models.ukf import UKFSettings
 
 CURRENT = "0.1,60"
 WAVES = "0.05"

@@ -8,8 +8,8 @@ from typing import Any
 import numpy as np
 from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
-from companion.estimation.ukf import UKF, make_ukf
 from companion.models.params_file import load_model_params
+from companion.models.ukf import UKF, make_ukf
 
 
 def run(quick: bool) -> dict[str, Any]:

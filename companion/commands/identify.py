@@ -42,12 +42,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from companion.cli import UserError
-    from companion.estimation.ukf import UKFSettings
     from companion.models.identify import IdentificationError
     from companion.models.logs import LogError, read_log
     from companion.models.noise_fit import fit_ukf_noise
     from companion.models.pipeline import ProgressBar, format_table, identify_models, ratios, validate
     from companion.models.report import write_report
+    from companion.models.ukf import UKFSettings
 
     if args.window <= 0 or args.horizon <= 0:
         raise UserError("--window and --horizon must be > 0 seconds")

@@ -19,10 +19,10 @@ from pathlib import Path
 import numpy as np
 
 from companion.config import Config
-from companion.estimation.ukf import UKF, UKFSettings, make_ukf
 from companion.messages import ActuatorCommand, ModelError, NavState
 from companion.models.params_file import load_model_params, load_ukf_settings, resolve_params_path
 from companion.models.qlpv import QLPVModel
+from companion.models.ukf import UKF, UKFSettings, make_ukf
 
 log = logging.getLogger(__name__)
 

@@ -4,7 +4,7 @@ All models of the chapter (the qLPV model of Eq. 3-4 and the two linear baseline
 Table 3) are *linear in their parameters*: each row of ``nu_dot = f(nu, input)`` is a dot
 product ``theta_j . phi_j(nu, throttle, delta)`` of a parameter row with a feature vector.
 :class:`LinearInParamsModel` captures that once, so identification
-(:mod:`companion.models.identify`), the UKF (:mod:`companion.estimation.ukf`), the
+(:mod:`companion.models.identify`), the UKF (:mod:`companion.models.ukf`), the
 controller and the report all evaluate the very same code.
 
 Arrays are vectorised: ``nu`` has shape ``(..., 3)`` (surge u m/s, sway v m/s, yaw rate

@@ -24,10 +24,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from companion.estimation.ukf import UKFSettings, make_ukf
 from companion.models.base import DOF_NAMES, FloatArray, LinearInParamsModel, error_index
 from companion.models.identify import smooth
 from companion.models.logs import Record
+from companion.models.ukf import UKFSettings, make_ukf
 
 MODES: tuple[str, ...] = ("free_run", "ahead", "ahead_active")
 

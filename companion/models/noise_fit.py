@@ -14,7 +14,7 @@ fits the model on, so a user can opt in (setting ``models.ukf_noise = "identifie
   what persists over the horizon the active model predicts, instead of to the sensor noise.
   The Q rows of nu stay zero as in Eq. 13 (the structured model carries nu).
 
-The result is a :class:`~companion.estimation.ukf.UKFSettings` with the chapter's alpha, beta
+The result is a :class:`~companion.models.ukf.UKFSettings` with the chapter's alpha, beta
 and kappa, Q read as a continuous intensity (Q dt per step) like the defaults.
 """
 
@@ -25,10 +25,10 @@ from collections.abc import Sequence
 import numpy as np
 from scipy.signal import savgol_coeffs, savgol_filter
 
-from companion.estimation.ukf import UKFSettings
 from companion.models.base import FloatArray, LinearInParamsModel
 from companion.models.identify import IdentificationError, smooth
 from companion.models.logs import Record
+from companion.models.ukf import UKFSettings
 
 R_WINDOW_S = 0.2
 R_POLYORDER = 3

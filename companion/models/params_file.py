@@ -33,9 +33,9 @@ from pathlib import Path
 
 import numpy as np
 
-from companion.estimation.ukf import UKFSettings
 from companion.models.base import DOF_NAMES
 from companion.models.qlpv import QLPVModel
+from companion.models.ukf import UKFSettings
 
 DEFAULT_PARAMS_PATH = Path(__file__).with_name("default_params.toml")
 """Shipped default: identified by ``usv identify`` on simulator logs (chapter sine protocol)."""

@@ -17,7 +17,6 @@ from typing import TextIO
 
 import numpy as np
 
-from companion.estimation.ukf import UKFSettings
 from companion.models.base import DOF_NAMES, LinearInParamsModel
 from companion.models.baselines import LinearizedModel, NomotoSideslipModel
 from companion.models.evaluate import (
@@ -40,6 +39,7 @@ from companion.models.identify import (
 )
 from companion.models.logs import Record
 from companion.models.persistence import HeldErrorBound, held_error_bound
+from companion.models.ukf import UKFSettings
 
 MODEL_ORDER: tuple[str, ...] = ("linearized", "nomoto_sideslip", "qlpv", "qlpv_oe")
 MODEL_TITLES: dict[str, str] = {"linearized": "Linearized", "nomoto_sideslip": "Nomoto with sideslip",

@@ -15,13 +15,13 @@ import pytest
 
 from companion.config import default_config
 from companion.estimation.service import EstimatorStage, load_companion_model, load_companion_ukf_settings
-from companion.estimation.ukf import CHAPTER_R_DIAG, UKFSettings
 from companion.models.base import DOF_NAMES
 from companion.models.evaluate import evaluate
 from companion.models.logs import Record
 from companion.models.noise_fit import fit_ukf_noise
 from companion.models.params_file import ModelParamsError, dump_model_params, load_ukf_settings
 from companion.models.persistence import autocorrelation, held_error_bound
+from companion.models.ukf import CHAPTER_R_DIAG, UKFSettings
 from tests.models.helpers import reference_qlpv, sine_inputs
 
 SENSOR_STD = np.sqrt(CHAPTER_R_DIAG)

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
-from companion.estimation.ukf import UKF, UKFSettings, make_ukf
 from companion.models.baselines import LinearizedModel
+from companion.models.ukf import UKF, UKFSettings, make_ukf
 from tests.models.helpers import reference_qlpv, sine_inputs
 
 DT = 0.01

@@ -1,6 +1,6 @@
 """Compiled (numba) predict+update step of the active-model UKF for the qLPV model.
 
-Exactly the arithmetic of :class:`companion.estimation.ukf.UKF` (sigma points of Eq. 8,
+Exactly the arithmetic of :class:`companion.models.ukf.UKF` (sigma points of Eq. 8,
 time update Eq. 9, the exact linear measurement update of Eq. 10-11 in Joseph form), with
 the qLPV features of :mod:`companion.models.qlpv` unrolled, so one 100 Hz step costs a few
 microseconds instead of the tens of microseconds that small numpy operations cost.  The

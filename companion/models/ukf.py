@@ -189,7 +189,7 @@ class UKF:
 class QLPVFastUKF(UKF):
     """The same filter for a :class:`~companion.models.qlpv.QLPVModel`, one compiled step.
 
-    :meth:`step` runs :func:`companion.estimation.ukf_kernel.qlpv_ukf_step` (numba); the
+    :meth:`step` runs :func:`companion.models.ukf_kernel.qlpv_ukf_step` (numba); the
     numpy :meth:`predict`/:meth:`update` of the base class remain available and give the
     same numbers (tested).
     """
@@ -197,7 +197,7 @@ class QLPVFastUKF(UKF):
     def __init__(self, model: QLPVModel, settings: UKFSettings | None = None,
                  x0: FloatArray | None = None, p0: FloatArray | None = None) -> None:
         super().__init__(model.derivative, settings, x0, p0)
-        from companion.estimation.ukf_kernel import qlpv_ukf_step
+        from companion.models.ukf_kernel import qlpv_ukf_step
 
         self._kernel = qlpv_ukf_step
         self._theta = np.ascontiguousarray(model.theta)
