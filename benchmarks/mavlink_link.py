@@ -68,6 +68,7 @@ async def _bench(quick: bool) -> dict[str, Any]:
             "links.tcp_listen": "", "links.tlog": True})
         ctx = build_context(config, WallClock())
         services = build_companion(ctx)  # no GPS-INS link: the feed below stands in for it
+        services.estimator.warm_up()  # load the compiled UKF step before the clock matters
         app = Application(services.in_start_order())
         task = asyncio.create_task(app.run(install_signal_handlers=False))
 

@@ -101,7 +101,6 @@ def build_companion(ctx: Context, hardware: HardwareLinks | None = None,
     payloads.register_commands(commands)
     model = load_companion_model(config)
     estimator = EstimatorStage(model, load_companion_ukf_settings(config))
-    estimator.warm_up()  # load the compiled UKF step now, not on the first sample
     control = ControlSystem(params, clock, bus, model)
     profile = str(config["vehicle.profile"])
     mission = MissionCursor(MissionStore(config.state_dir() / "missions"), first_mission_seq(profile))

@@ -75,8 +75,9 @@ class EstimatorStage:
         self._warned = False
 
     def warm_up(self) -> None:
-        """Run a throwaway filter for two samples, so the compiled step is loaded (numba) at
-        start-up and not on the first navigation sample, which would stall the 100 Hz loop."""
+        """Run a throwaway filter for two samples, so the compiled step is loaded (numba) now
+        and not on the first navigation sample, where it stalls the 100 Hz loop for seconds
+        (tests and benchmarks on the wall clock call this before feeding samples)."""
         ukf = make_ukf(self.model, self.settings)
         z = np.zeros(3)
         ukf.initialize(z)

@@ -239,19 +239,6 @@ class ReturnItem(NavItem):
         return None
 
 
-class NavDelayItem(ItemTask):
-    """NAV_DELAY: keep station where the boat is for param1 s."""
-
-    def start(self, nav: NavState) -> int | None:
-        self.run.task = StationTask(self.run.host.params, (nav.lat_deg, nav.lon_deg), nav.heading_rad)
-        self.run.phase = Phase.DELAY
-        return None
-
-    def step(self, nav: NavState) -> bool:
-        return nav.t_s - self.run.since_s >= max(0.0, self.item.param1)
-
-
-# -- immediate items --------------------------------------------------------------------------
 class ConditionDelayItem(ItemTask):
     """CONDITION_DELAY: wait param1 s, steering as before."""
 
@@ -261,6 +248,17 @@ class ConditionDelayItem(ItemTask):
 
     def step(self, nav: NavState) -> bool:
         return nav.t_s - self.run.since_s >= max(0.0, self.item.param1)
+
+
+class NavDelayItem(ConditionDelayItem):
+    """NAV_DELAY: keep station where the boat is for param1 s."""
+
+    def start(self, nav: NavState) -> int | None:
+        self.run.task = StationTask(self.run.host.params, (nav.lat_deg, nav.lon_deg), nav.heading_rad)
+        return super().start(nav)
+
+
+# -- immediate items --------------------------------------------------------------------------
 
 
 class ChangeSpeedItem(ItemTask):

@@ -82,6 +82,7 @@ async def running_vehicle(state_dir: Path, udp_ports: list[int], *, tcp_port: in
         "links.serial": serial or [],
     })
     services = build_companion(build_context(config, WallClock()))
+    services.estimator.warm_up()  # the first sample would stall the wall-clock test for seconds
     app = Application(services.in_start_order())
     task = asyncio.create_task(app.run(install_signal_handlers=False))
     try:
