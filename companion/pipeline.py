@@ -9,11 +9,15 @@ the next:
 2. **estimator** -- the qLPV model + UKF of Eq. 5-11 (:class:`~companion.estimation.service.
    EstimatorStage`): the model error delta_nu, given the actuator command applied since the
    last sample; handed to the controller (:meth:`ControlSystem.use_model_error`);
-3. **modes** -- the active mode (:class:`~companion.modes.manager.ModeManager`): its target
-   (mission, guided point, loiter point, pilot sticks), guidance (LOS, circle, station keeping),
-   the controller family (PID or active model) and the actuator mapping (limits, slew rates),
-   ending in an :class:`~companion.messages.ActuatorCommand` (``None``: keep the last one);
-4. **servo frame** -- the command, the payloads' outputs (their declared servo channels) and the
+3. **modes** -- the active mode (:class:`~companion.modes.manager.ModeManager`, run against the
+   vehicle): its target (mission item, guided point, loiter point, pilot sticks) through
+   guidance (LOS path following, circle, station keeping), returned as a
+   :class:`~companion.control.target.ControlRequest` (HOLD returns its command as it is;
+   ``None``: nothing new, the last command stays);
+4. **controller** -- the control system (:meth:`ControlSystem.apply`): the controller family
+   (PID or active model, Fig. 6) and the actuator mapping (limits, slew rates), giving the
+   :class:`~companion.messages.ActuatorCommand`;
+5. **servo frame** -- the command, the payloads' outputs (their declared servo channels) and the
    operator's servo overrides as pulse widths (:class:`ServoOutput`), written as ONE ``$PUSVS``
    frame to the servo link.
 
@@ -33,17 +37,19 @@ import logging
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Protocol, TypeVar
+from typing import ParamSpec, Protocol, TypeVar
 
 from companion.actuators.servo import ServoMap, encode_frame
 from companion.bus import Bus
 from companion.clock import Clock
+from companion.control.target import ControlRequest
 from companion.messages import ActuatorCommand, ModelError, NavState, ServoOutputs
 from companion.transport import ByteLink
 
 log = logging.getLogger(__name__)
 
-T = TypeVar("T")
+P = ParamSpec("P")
+R = TypeVar("R")
 
 
 class Estimator(Protocol):
@@ -52,14 +58,17 @@ class Estimator(Protocol):
     def step(self, nav: NavState, applied: ActuatorCommand | None) -> ModelError | None: ...
 
 
-class ModelErrorUser(Protocol):
-    """Who receives the estimate (the control system's active-model law)."""
+ModesStage = Callable[[NavState], ControlRequest | ActuatorCommand | None]
+"""Stage 3: what the active mode asks of the controller for one sample."""
+
+
+class Controller(Protocol):
+    """Stage 4 (:class:`~companion.control.system.ControlSystem`): the estimate in, the mode's
+    request out as an actuator command."""
 
     def use_model_error(self, estimate: ModelError) -> None: ...
 
-
-CommandStage = Callable[[NavState], ActuatorCommand | None]
-"""Stage 3: the actuator command of one sample (``None``: keep the last command)."""
+    def apply(self, nav: NavState, request: ControlRequest) -> ActuatorCommand: ...
 
 
 @dataclass
@@ -121,14 +130,22 @@ class ServoOutput:
 
 
 class Pipeline:
-    """The synchronous sample -> estimator -> modes -> servo frame pass (see the module doc)."""
+    """The synchronous sample -> estimator -> modes -> controller -> servo frame pass (module doc).
 
-    def __init__(self, *, bus: Bus, estimator: Estimator | None, model_error_user: ModelErrorUser | None,
-                 modes: CommandStage, output: ServoOutput) -> None:
+    ``estimator`` and ``controller`` are ``None`` on the bare hardware seam, where ``modes`` is a
+    test's or a benchmark's function returning actuator commands.  ``mode_failed`` is told when
+    the controller raises on a mode's request (the vehicle then falls back to HOLD, as for a
+    mode that raises itself).
+    """
+
+    def __init__(self, *, bus: Bus, estimator: Estimator | None, modes: ModesStage,
+                 controller: Controller | None, output: ServoOutput,
+                 mode_failed: Callable[[Exception], None] | None = None) -> None:
         self.estimator = estimator
-        self.model_error_user = model_error_user
         self.modes = modes
+        self.controller = controller
         self.output = output
+        self.mode_failed = mode_failed
         self.stats = output.stats
         self.last_command: ActuatorCommand | None = None
         """The command in force: the last one the modes stage returned."""
@@ -143,33 +160,42 @@ class Pipeline:
         self.stats.samples += 1
         self.last_sample_s = nav.t_s
         self._t = time.perf_counter()
-        self._nav.publish(nav)  # observers: home position, telemetry, payloads
+        self._nav.publish(nav)  # 1. sample (observers: home position, telemetry, payloads)
         self._lap("nav_publish")
-        if self.estimator is not None:
-            estimate = self._stage("estimator", self.estimator.step, nav, self.last_command)
+        controller = self.controller
+        if self.estimator is not None:  # 2. model error delta_nu (Eq. 5-11)
+            estimate = self._stage("estimator", None, self.estimator.step, nav, self.last_command)
             if estimate is not None:
                 self._model_error.publish(estimate)
-                if self.model_error_user is not None:
-                    self.model_error_user.use_model_error(estimate)
-        command = self._stage("modes", self.modes, nav)
+                if controller is not None:
+                    controller.use_model_error(estimate)
+        request = self._stage("modes", None, self.modes, nav)  # 3. the active mode's target
+        command: ActuatorCommand | None = None
+        if not isinstance(request, ControlRequest):  # HOLD's own command, a seam driver's, or None
+            command = request
+        elif controller is not None:  # 4. controller family + actuator mapping
+            command = self._stage("controller", self.mode_failed, controller.apply, nav, request)
         if command is not None:
             self.last_command = command
             self._command.publish(command)
-        return self.output.write(self.last_command, ack)
+        return self.output.write(self.last_command, ack)  # 5. one servo frame
 
     def refresh(self) -> ServoOutputs:
         """Write the frame of the command in force again (no sample: the 10 Hz refresh)."""
         return self.output.write(self.last_command)
 
-    def _stage(self, name: str, fn: Callable[..., T | None], *args: object) -> T | None:
+    def _stage(self, name: str, on_error: Callable[[Exception], None] | None, fn: Callable[P, R],
+               *args: P.args, **kwargs: P.kwargs) -> R | None:
         try:
-            result = fn(*args)
-        except Exception:
+            result: R | None = fn(*args, **kwargs)
+        except Exception as exc:
             errors = self.stats.stage_errors
             errors[name] = errors.get(name, 0) + 1
             if errors[name] <= 3:
                 log.exception("pipeline stage %s failed", name)
             result = None
+            if on_error is not None:
+                on_error(exc)
         self._lap(name)
         return result
 

@@ -65,20 +65,20 @@ class Services:
     """Every part of one companion, in the order they were built (see :func:`build_companion`)."""
 
     ctx: Context
+    payloads: PayloadRegistry
+    """Rope launcher, water sampler (and any added payload), their sample log."""
     links: LinkManager
     """MAVLink transports (UDP, TCP, serial) and the message dispatcher."""
     commands: CommandRegistry
     """COMMAND_LONG / COMMAND_INT handlers: the vehicle's and the payloads'."""
-    payloads: PayloadRegistry
-    """Rope launcher, water sampler (and any added payload), their sample log."""
     estimator: EstimatorStage
     """qLPV + UKF model error (Eq. 5-11), stage 2 of the pipeline."""
     control: ControlSystem
-    """PID / active-model controller families and the actuator mapping."""
+    """PID / active-model controller families and the actuator mapping (stage 4 of the pipeline)."""
     vehicle: Vehicle
     """Arming, home, targets, modes (stage 3 of the pipeline) and mission progress."""
     pipeline: Pipeline
-    """The 100 Hz path: sample -> estimator -> modes -> servo frame."""
+    """The 100 Hz path: sample -> estimator -> modes -> controller -> servo frame."""
     mavlink: MavlinkService
     """Everything the vehicle says and answers on its links."""
     hardware: HardwareIoService
@@ -94,28 +94,31 @@ def build_companion(ctx: Context, hardware: HardwareLinks | None = None,
     """Build every part of the companion; ``hardware``: ready-made GPS-INS/servo links (SITL);
     ``extra_payloads``: payloads beyond the built-in ones (give the same to :func:`build_context`)."""
     config, params, clock, bus = ctx.config, ctx.params, ctx.clock, ctx.bus
+    # the payloads first: they contribute commands, mission actions, outputs, telemetry, sentences
     payloads = PayloadRegistry(ctx, (*built_in_payloads(), *extra_payloads))
+    actions = payloads.mission_actions
     streams = {s.msg_id: (s.rate_hz, s.stream_group) for s in payloads.status_messages}
     links = LinkManager(ctx, extra_streams=streams)
     commands = CommandRegistry()
     payloads.register_commands(commands)
+    # the control side: model, estimator, controller families, modes, the vehicle they run on
     model = load_companion_model(config)
     estimator = EstimatorStage(model, load_companion_ukf_settings(config))
     control = ControlSystem(params, clock, bus, model)
     profile = str(config["vehicle.profile"])
     mission = MissionCursor(MissionStore(config.state_dir() / "missions"), first_mission_seq(profile))
-    actions = payloads.mission_actions
     vehicle = Vehicle(ctx, mission, ModeManager(MODE_CLASSES), control, actions)
-    servo_map = ServoMap(params, payloads.servo_channels)
-    servo_map.overrides_us = vehicle.servo_overrides_us  # DO_SET_SERVO / DO_SET_RELAY (free outputs)
+    # the 100 Hz pipeline: sample -> estimator -> modes -> controller -> servo frame
+    servo_map = ServoMap(params, payloads.servo_channels, overrides_us=vehicle.servo_overrides_us)
     output = ServoOutput(servo_map, clock, bus, LoopStats())
-    pipeline = Pipeline(bus=bus, estimator=estimator, model_error_user=control, modes=vehicle.update_mode,
-                        output=output)
+    pipeline = Pipeline(bus=bus, estimator=estimator, modes=vehicle.update_mode, controller=control,
+                        output=output, mode_failed=vehicle.mode_failed)
+    # the MAVLink face and the hardware seam
     telemetry = Telemetry(ctx, vehicle, {s.msg_id: s.build for s in payloads.status_messages})
     validator = MissionValidator({a.command: ItemRule(a.needs_position, a.check) for a in actions.values()})
     mavlink = MavlinkService(ctx, links, vehicle, commands, telemetry, validator, servo_map)
     hardware_io = HardwareIoService(ctx, pipeline, hardware, payloads.sentences)
-    return Services(ctx=ctx, links=links, commands=commands, payloads=payloads, estimator=estimator,
+    return Services(ctx=ctx, payloads=payloads, links=links, commands=commands, estimator=estimator,
                     control=control, vehicle=vehicle, pipeline=pipeline, mavlink=mavlink,
                     hardware=hardware_io)
 

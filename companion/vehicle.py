@@ -19,7 +19,6 @@ from companion.app import Context
 from companion.control.manual_input import PilotInput, pilot_input
 from companion.control.system import ControlSystem
 from companion.messages import (
-    ActuatorCommand,
     FixType,
     GuidedTarget,
     Home,
@@ -33,6 +32,7 @@ from companion.mission.cursor import MissionCursor, MissionState
 from companion.mission.items import MissionItem
 from companion.mission.store import MissionStore
 from companion.modes.auto_items import MissionAction
+from companion.modes.base import ModeOutput
 from companion.modes.manager import ModeManager
 from companion.params import ParamStore
 
@@ -190,9 +190,13 @@ class Vehicle:
         """Enter the initial mode (HOLD) once everything is wired."""
         self.modes.start(self)
 
-    def update_mode(self, nav: NavState) -> ActuatorCommand | None:
-        """The pipeline's modes stage: the active mode's actuator command for ``nav``."""
+    def update_mode(self, nav: NavState) -> ModeOutput:
+        """The pipeline's modes stage: what the active mode asks of the controller for ``nav``."""
         return self.modes.update(self, nav)
+
+    def mode_failed(self, exc: Exception) -> None:
+        """The controller could not fly the active mode's request: fall back to HOLD."""
+        self.modes.fall_back(self, exc)
 
     def _on_mode_changed(self, old: object, new: object) -> None:
         self.status(f"Mode {self.modes.current.name}", Severity.INFO)

@@ -209,8 +209,8 @@ class SitlHarness:
         else:
             ctx = self.ctx
             output = ServoOutput(ServoMap(ctx.params), ctx.clock, ctx.bus, LoopStats())
-            self.pipeline = Pipeline(bus=ctx.bus, estimator=None, model_error_user=None,
-                                     modes=self.driver.update, output=output)
+            self.pipeline = Pipeline(bus=ctx.bus, estimator=None, modes=self.driver.update, controller=None,
+                                     output=output)
             self.hardware = HardwareIoService(ctx, self.pipeline, links)
             self._lifecycle = [self.hardware]
         try:

@@ -89,11 +89,13 @@ class ServoMap:
     autopilot-owned channel (the boat's and the payloads') is ignored.
     """
 
-    def __init__(self, params: ParamStore, payload_channels: Sequence[ServoChannel] = ()) -> None:
+    def __init__(self, params: ParamStore, payload_channels: Sequence[ServoChannel] = (),
+                 overrides_us: dict[int, int] | None = None) -> None:
         self.params = params
         self.payload_channels = tuple(payload_channels)
         self._cache: _Resolved | None = None
-        self.overrides_us: dict[int, int] = {}
+        self.overrides_us: dict[int, int] = {} if overrides_us is None else overrides_us
+        """The operator's overrides (the vehicle's table, shared, not copied)."""
         params.add_listener(lambda _n, _v: self._invalidate())
 
     def _invalidate(self) -> None:

@@ -3,9 +3,10 @@
 :class:`ControlSystem` is created once per vehicle (:mod:`companion.runtime`), reads its tuning
 from the parameter table (rebuilt when a parameter changes), picks the controller family from
 ``USV_CTRL_TYPE`` on every step (so it can be switched while moving; the new family starts from
-the current actuator state), and RETURNS the :class:`~companion.messages.ActuatorCommand` to
-the pipeline; the guidance :class:`~companion.messages.Setpoint` goes on ``setpoint`` for
-observers.  The active-model family needs the identified qLPV model and the estimator's model
+the current actuator state), and RETURNS the :class:`~companion.messages.ActuatorCommand` for
+the active mode's :class:`~companion.control.target.ControlRequest` to the pipeline
+(:meth:`ControlSystem.apply`); the guidance :class:`~companion.messages.Setpoint` goes on
+``setpoint`` for observers.  The active-model family needs the identified qLPV model and the estimator's model
 error, which the pipeline hands over every sample (:meth:`ControlSystem.use_model_error`);
 without a model it falls back to PID and says so once.  Station-keeping targets
 (``ControlTarget.hold_station``) are steered by PID unless ``USV_STN_CTRL`` is 1.
@@ -29,7 +30,7 @@ from companion.control.params import (
     pid_config,
 )
 from companion.control.pid_family import PidController
-from companion.control.target import ControlOutput, ControlTarget, CourseSpeedController
+from companion.control.target import ControlOutput, ControlRequest, ControlTarget, CourseSpeedController
 from companion.messages import ActuatorCommand, ModelError, NavState, Setpoint, Severity, StatusText
 from companion.models.qlpv import QLPVModel
 from companion.params import ParamStore
@@ -102,6 +103,12 @@ class ControlSystem:
                 fam = PidController(pid_config(p))
             self._families[kind] = fam
         return fam
+
+    def apply(self, nav: NavState, request: ControlRequest) -> ActuatorCommand:
+        """The pipeline's controller stage: the actuator command for the mode's ``request``."""
+        if request.target is not None:
+            return self.step(nav, request.target, ignition_on=request.ignition_on)
+        return self.direct(nav, request.nozzle_rad, request.throttle, ignition_on=request.ignition_on)
 
     def reset(self) -> None:
         """Forget timing and integrators (a mode was entered)."""

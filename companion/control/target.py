@@ -37,6 +37,30 @@ class ControlTarget:
 
 
 @dataclass(frozen=True, slots=True)
+class ControlRequest:
+    """What the active mode asks of the control system for one sample: follow a ``target``
+    (closed loop: controller family, then actuator mapping), or, without one, this nozzle angle
+    and throttle through the actuator limits and slew rates (MANUAL; idle is both zero)."""
+
+    ignition_on: bool
+    target: ControlTarget | None = None
+    nozzle_rad: float = 0.0
+    throttle: float = 0.0
+
+    @classmethod
+    def follow(cls, target: ControlTarget, *, ignition_on: bool) -> ControlRequest:
+        return cls(ignition_on, target)
+
+    @classmethod
+    def direct(cls, nozzle_rad: float, throttle: float, *, ignition_on: bool) -> ControlRequest:
+        return cls(ignition_on, None, nozzle_rad, throttle)
+
+    @classmethod
+    def idle(cls, *, ignition_on: bool) -> ControlRequest:
+        return cls(ignition_on)
+
+
+@dataclass(frozen=True, slots=True)
 class ControlOutput:
     nozzle_rad: float
     throttle: float

@@ -14,10 +14,10 @@ LOITER according to MIS_DONE_BEHAVE.
 
 from __future__ import annotations
 
-from companion.messages import ActuatorCommand, ModeNumber, NavState, Severity
+from companion.messages import ModeNumber, NavState, Severity
 from companion.mission.items import MissionItem
 from companion.modes.auto_items import BUILT_IN_ACTIONS, UNSUPPORTED, AutoRun, ItemTask, MissionAction, Phase
-from companion.modes.base import StandardMode
+from companion.modes.base import ModeOutput, StandardMode
 from companion.modes.host import ModeHost
 from companion.modes.navigation import NavMode, param
 
@@ -74,7 +74,7 @@ class AutoMode(NavMode):
             self.item_task.cancel()
         self.seq = -1
 
-    def update(self, host: ModeHost, nav: NavState) -> ActuatorCommand | None:
+    def update(self, host: ModeHost, nav: NavState) -> ModeOutput:
         run = self.run
         assert run is not None
         if host.mission.current_seq != self.seq:  # the operator jumped (MISSION_SET_CURRENT)

@@ -2,9 +2,11 @@
 
 A mode is a small object with ``enter``/``update``/``exit`` run against a
 :class:`~companion.modes.host.ModeHost` (what it may read and request): ``update`` turns the
-navigation solution into a target, runs it through the host's control system and RETURNS the
-:class:`~companion.messages.ActuatorCommand` (``None``: no new command this sample).  A mode
-never talks MAVLink and never writes outputs itself.
+navigation solution into what it asks of the controller and RETURNS it: a
+:class:`~companion.control.target.ControlRequest` (a target to follow, or sticks through the
+actuator limits), an :class:`~companion.messages.ActuatorCommand` to apply as it is (HOLD), or
+``None`` (nothing new this sample).  The pipeline's controller stage does the rest.  A mode never
+talks MAVLink and never writes outputs itself.
 The MAVLink face of modes (heartbeat custom_mode, DO_SET_MODE, AVAILABLE_MODES,
 CURRENT_MODE, POSITION_TARGET_GLOBAL_INT, NAV_CONTROLLER_OUTPUT) lives in
 :mod:`companion.mavlink` and reads only the attributes defined here.
@@ -20,8 +22,12 @@ import enum
 from dataclasses import dataclass
 from typing import ClassVar
 
+from companion.control.target import ControlRequest
 from companion.messages import ActuatorCommand, NavState
 from companion.modes.host import ModeHost
+
+ModeOutput = ControlRequest | ActuatorCommand | None
+"""What a mode's ``update`` returns for the controller stage."""
 
 
 class StandardMode(enum.IntEnum):
@@ -92,9 +98,9 @@ class Mode:
         """Called once when the mode becomes active (after :meth:`requirements` passed)."""
         return None
 
-    def update(self, host: ModeHost, nav: NavState) -> ActuatorCommand | None:
-        """Called by the pipeline on every navigation sample (100 Hz) while active; the
-        actuator command, or ``None`` to keep the last one."""
+    def update(self, host: ModeHost, nav: NavState) -> ModeOutput:
+        """Called by the pipeline on every navigation sample (100 Hz) while active: what the
+        mode asks of the controller (``None``: the last command stays)."""
         return None
 
     def exit(self, host: ModeHost) -> None:

@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import math
 
-from companion.control.target import ControlTarget
-from companion.messages import ActuatorCommand, ModeNumber, NavState
+from companion.control.target import ControlRequest, ControlTarget
+from companion.messages import ModeNumber, NavState
 from companion.modes.base import StandardMode, requires_position
 from companion.modes.host import ModeHost
 from companion.modes.navigation import NavMode
@@ -44,7 +44,7 @@ class CruiseMode(NavMode):
         self._override = host.speed_override_mps
         self.nav_target = None
 
-    def update(self, host: ModeHost, nav: NavState) -> ActuatorCommand:
+    def update(self, host: ModeHost, nav: NavState) -> ControlRequest:
         dt = self.dt(nav)
         inp = host.pilot_input()
         if inp is not None:
@@ -55,4 +55,4 @@ class CruiseMode(NavMode):
             self.speed_mps = max(0.0, override)
         self._override = override
         target = ControlTarget(self.heading_rad, self.speed_mps, is_heading=True)
-        return host.control.step(nav, target, ignition_on=host.armed)
+        return ControlRequest.follow(target, ignition_on=host.armed)

@@ -8,7 +8,8 @@ Without a target the boat keeps station where GUIDED was entered.
 
 from __future__ import annotations
 
-from companion.messages import ActuatorCommand, GuidedTarget, ModeNumber, NavState
+from companion.messages import GuidedTarget, ModeNumber, NavState
+from companion.modes.base import ModeOutput
 from companion.modes.host import ModeHost
 from companion.modes.navigation import CircleTask, GotoTask, NavMode, StationTask, wp_speed_mps
 
@@ -31,7 +32,7 @@ class GuidedMode(NavMode):
         self._target = None
         self.task = StationTask(host.params, (nav.lat_deg, nav.lon_deg), nav.heading_rad)
 
-    def update(self, host: ModeHost, nav: NavState) -> ActuatorCommand | None:
+    def update(self, host: ModeHost, nav: NavState) -> ModeOutput:
         params = host.params
         target = host.guided_target
         if target is not None and target is not self._target:

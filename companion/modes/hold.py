@@ -14,4 +14,5 @@ class HoldMode(Mode):
     description = "Hold: engine idle, nozzle centred; the boat drifts with wind and current."
 
     def update(self, host: ModeHost, nav: NavState) -> ActuatorCommand:
+        """Idle and centred at once (no slew), as the command in force."""
         return ActuatorCommand(t_s=nav.t_s, nozzle_rad=0.0, throttle=0.0, ignition_on=host.armed)

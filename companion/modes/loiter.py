@@ -26,8 +26,8 @@ from __future__ import annotations
 import math
 
 from companion.guidance.geo import wrap_pi
-from companion.messages import ActuatorCommand, ModeNumber, NavState
-from companion.modes.base import StandardMode
+from companion.messages import ModeNumber, NavState
+from companion.modes.base import ModeOutput, StandardMode
 from companion.modes.host import ModeHost
 from companion.modes.navigation import CircleTask, NavMode, StationTask, param
 
@@ -61,7 +61,7 @@ class LoiterMode(NavMode):
         params = host.params
         return max(params.get("USV_TURN_RAD"), param(params, "LOIT_RADIUS") - 0.5)
 
-    def update(self, host: ModeHost, nav: NavState) -> ActuatorCommand | None:
+    def update(self, host: ModeHost, nav: NavState) -> ModeOutput:
         dt = self.dt(nav)
         task = self.task
         if isinstance(task, StationTask):

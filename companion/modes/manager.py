@@ -14,9 +14,9 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 
-from companion.messages import ActuatorCommand, ModeNumber, NavState, Severity
+from companion.messages import ModeNumber, NavState, Severity
 from companion.modes.auto import AutoMode
-from companion.modes.base import Mode
+from companion.modes.base import Mode, ModeOutput
 from companion.modes.cruise import CruiseMode
 from companion.modes.guided import GuidedMode
 from companion.modes.hold import HoldMode
@@ -134,16 +134,21 @@ class ModeManager:
                 log.exception("mode listener failed")
         return None
 
-    def update(self, host: ModeHost, nav: NavState) -> ActuatorCommand | None:
-        """Run the active mode for one navigation sample (the pipeline's modes stage); its
-        actuator command, or ``None`` when it has none this sample (the last one stays)."""
+    def update(self, host: ModeHost, nav: NavState) -> ModeOutput:
+        """Run the active mode for one navigation sample (the pipeline's modes stage): what it
+        asks of the controller, ``None`` when nothing new this sample (the last command stays)."""
         mode = self._current
         try:
             return mode.update(host, nav)
         except Exception as exc:
             log.exception("update() of %r failed", mode)
-            fallback = self._modes.get(FALLBACK_MODE_NUMBER)
-            if fallback is not None and fallback is not mode:
-                host.status(f"{mode.name} failed ({exc}); switching to {fallback.name}", Severity.CRITICAL)
-                self._switch(fallback, host)
+            self.fall_back(host, exc)
             return None
+
+    def fall_back(self, host: ModeHost, exc: Exception) -> None:
+        """The active mode failed (its update, or the controller on its request): go to HOLD."""
+        mode = self._current
+        fallback = self._modes.get(FALLBACK_MODE_NUMBER)
+        if fallback is not None and fallback is not mode:
+            host.status(f"{mode.name} failed ({exc}); switching to {fallback.name}", Severity.CRITICAL)
+            self._switch(fallback, host)

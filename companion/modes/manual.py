@@ -13,7 +13,8 @@ from __future__ import annotations
 
 import math
 
-from companion.messages import ActuatorCommand, ModeNumber, NavState
+from companion.control.target import ControlRequest
+from companion.messages import ModeNumber, NavState
 from companion.modes.base import Mode
 from companion.modes.host import ModeHost
 
@@ -33,8 +34,7 @@ class ManualMode(Mode):
         self._source = None
         host.control.reset()
 
-    def update(self, host: ModeHost, nav: NavState) -> ActuatorCommand:
-        control = host.control
+    def update(self, host: ModeHost, nav: NavState) -> ControlRequest:
         inp = host.pilot_input()
         source = None if inp is None else inp.source
         if source != self._source and self._source is not None:
@@ -43,6 +43,6 @@ class ManualMode(Mode):
             host.status(f"MANUAL: {lost}; {then}" if source != "gcs" else "MANUAL: ground-station input")
         self._source = source
         if inp is None or not host.armed:
-            return control.idle(nav, ignition_on=host.armed)
+            return ControlRequest.idle(ignition_on=host.armed)
         nozzle_max = math.radians(host.params.get("USV_NOZ_MAX"))
-        return control.direct(nav, inp.steering * nozzle_max, inp.throttle, ignition_on=True)
+        return ControlRequest.direct(inp.steering * nozzle_max, inp.throttle, ignition_on=True)

@@ -13,14 +13,14 @@ from __future__ import annotations
 import math
 from typing import Protocol
 
-from companion.control.target import ControlTarget
+from companion.control.target import ControlRequest, ControlTarget
 from companion.guidance.circle import CircleTracker
 from companion.guidance.geo import LocalFrame, distance_bearing, wrap_pi
 from companion.guidance.los import LosFollower, LosType
 from companion.guidance.params import circle_gains, leg_config, los_gains, station_gains
 from companion.guidance.station import StationKeeper
 from companion.guidance.waypoints import LegNavigator
-from companion.messages import ActuatorCommand, NavState
+from companion.messages import NavState
 from companion.modes.base import Mode, NavTarget, requires_position
 from companion.modes.host import ModeHost
 from companion.params import ParamStore
@@ -166,11 +166,10 @@ class NavMode(Mode):
         return dt
 
     def run_task(self, host: ModeHost, nav: NavState, task: Task,
-                 dt_s: float | None = None) -> ActuatorCommand:
-        """One step of ``task``: target -> control system -> actuator command; telemetry target.
+                 dt_s: float | None = None) -> ControlRequest:
+        """One step of ``task``: its target for the controller stage; the telemetry target.
         ``dt_s``: this period's :meth:`dt` if the mode has already taken it."""
         target = task.step(nav, self.dt(nav) if dt_s is None else dt_s)
-        command = host.control.step(nav, target, ignition_on=host.armed)
         point = task.point
         dist_m = task.distance_m if math.isfinite(task.distance_m) else 0.0
         north, east = task.frame.to_ne(*point)
@@ -181,4 +180,4 @@ class NavMode(Mode):
             target_bearing_rad=bearing, nav_bearing_rad=target.course_rad % (2 * math.pi),
             xtrack_error_m=task.cross_track_m,
             speed_error_mps=target.speed_mps - nav.u_mps)
-        return command
+        return ControlRequest.follow(target, ignition_on=host.armed)

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from companion.messages import ActuatorCommand, ModeNumber, NavState
-from companion.modes.base import StandardMode
+from companion.messages import ModeNumber, NavState
+from companion.modes.base import ModeOutput, StandardMode
 from companion.modes.host import ModeHost
 from companion.modes.navigation import GotoTask, NavMode, StationTask, param, wp_speed_mps
 
@@ -28,7 +28,7 @@ class RtlMode(NavMode):
         self.task = GotoTask(params, (nav.lat_deg, nav.lon_deg), home, wp_speed_mps(params),
                              param(params, "WP_RADIUS"))
 
-    def update(self, host: ModeHost, nav: NavState) -> ActuatorCommand | None:
+    def update(self, host: ModeHost, nav: NavState) -> ModeOutput:
         if isinstance(self.task, GotoTask) and self.task.reached:
             host.status("RTL: home reached, keeping station")
             self.task = StationTask(host.params, self.task.end, nav.heading_rad)

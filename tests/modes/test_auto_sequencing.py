@@ -1,5 +1,6 @@
 """AUTO's item sequencing, fast: the real vehicle (mode host), mission cursor, AUTO table and
-control system, with navigation samples placed where a test wants the boat (no plant).
+control system, with navigation samples placed where a test wants the boat (no plant, no
+estimator, no servo frame: the pipeline's modes and controller stages only).
 
 The boat "sails" by being put on the point of the current item, so legs end at once and what
 is tested is the order of items, the jumps, the waits and the turns, not the controller."""
@@ -10,6 +11,7 @@ import math
 
 import pytest
 
+from companion.control.target import ControlRequest
 from companion.guidance.geo import LocalFrame
 from companion.messages import ModeNumber, NavState, StatusText
 from companion.mission import items as mi
@@ -53,7 +55,9 @@ class Rig:
         self.ctx.clock.advance_to(self.now_s + DT_S)  # type: ignore[attr-defined]
         lat_deg, lon_deg = FRAME.to_lat_lon(north_m, east_m)
         nav = publish_nav(self.ctx, lat_deg=lat_deg, lon_deg=lon_deg)
-        self.vehicle.update_mode(nav)
+        request = self.vehicle.update_mode(nav)  # the pipeline's modes and controller stages
+        if isinstance(request, ControlRequest):
+            self.vehicle.control.apply(nav, request)
         return nav
 
     def at_current_item(self) -> tuple[float, float]:
