@@ -133,10 +133,6 @@ class ControlSystem:
         self._setpoint.publish(Setpoint(nav.t_s, target.course_rad % (2 * math.pi), target.speed_mps))
         return ActuatorCommand(t_s=nav.t_s, nozzle_rad=nozzle, throttle=throttle, ignition_on=ignition_on)
 
-    def idle(self, nav: NavState, *, ignition_on: bool = True) -> ActuatorCommand:
-        """Engine idle, nozzle centred (slewed), integrators left alone."""
-        return self.direct(nav, 0.0, 0.0, ignition_on=ignition_on)
-
     def direct(self, nav: NavState, nozzle_rad: float, throttle: float, *,
                ignition_on: bool = True) -> ActuatorCommand:
         """Pass a nozzle angle and throttle (MANUAL) through the actuator limits and slew rates."""
