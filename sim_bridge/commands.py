@@ -11,7 +11,6 @@ from companion.app import Application
 from companion.clock import SimClock
 from companion.commands.common import add_config_argument, add_sim_arguments, config_from_args, run_async
 from companion.config import Config
-from companion.runtime import build_context
 
 HELP = "run the simulated boat alone, or an open-loop manoeuvre for identification"
 
@@ -45,6 +44,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 async def run_sim(config: Config, gnss_port: str = "pty", servo_port: str = "pty",
                   status_every_s: float = 10.0) -> None:
+    from companion.runtime import build_context  # the companion's wiring: import late (CLI start-up)
     from sim_bridge.runtime import build_sim_services
 
     clock = SimClock()

@@ -8,7 +8,6 @@ from companion.app import Application
 from companion.clock import WallClock
 from companion.commands.common import add_config_argument, config_from_args, run_async
 from companion.config import Config
-from companion.runtime import ReadyBanner, build_companion, build_context
 
 HELP = "run the companion alone against real hardware (GPS-INS and servo serial ports)"
 
@@ -18,6 +17,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 async def run_companion(config: Config) -> None:
+    from companion.runtime import ReadyBanner, build_companion, build_context  # the whole stack: import late
+
     clock = WallClock()
     ctx = build_context(config, clock)
     services = build_companion(ctx).in_start_order()

@@ -8,7 +8,6 @@ from companion.app import Application
 from companion.clock import SimClock
 from companion.commands.common import add_config_argument, add_sim_arguments, config_from_args, run_async
 from companion.config import Config
-from companion.runtime import ReadyBanner, build_companion, build_context
 
 HELP = "run the simulated boat together with the companion (software in the loop)"
 
@@ -21,6 +20,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 async def run_sitl(config: Config, duration_s: float | None = None) -> None:
+    from companion.runtime import ReadyBanner, build_companion, build_context  # the whole stack: import late
     from sim_bridge.runtime import SimulatorService
 
     clock = SimClock()

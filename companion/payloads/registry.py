@@ -30,18 +30,20 @@ import pkgutil
 import xml.etree.ElementTree as ET
 from collections.abc import Awaitable, Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from companion.actuators.servo import ServoChannel
 from companion.app import BaseService, Context
 from companion.mavlink.commands import CommandHandler, CommandRegistry
 from companion.messages import Severity, StatusText
-from companion.modes.auto_items import MissionAction
 from companion.params import ParamDef
 from companion.payloads.samplelog import SAMPLE_LOG_NAME, SampleLog
 from companion.payloads.topics import PayloadOutputs
 
-__all__ = ["DialectEntries", "MissionAction", "Payload", "PayloadCommandDecl", "PayloadDef", "PayloadEnv",
+if TYPE_CHECKING:
+    from companion.modes.auto_items import MissionAction
+
+__all__ = ["DialectEntries", "Payload", "PayloadCommandDecl", "PayloadDef", "PayloadEnv",
            "PayloadError", "PayloadRegistry", "ServoChannel", "StatusMessage", "built_in_payloads"]
 
 log = logging.getLogger(__name__)

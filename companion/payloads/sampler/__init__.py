@@ -1,48 +1,43 @@
 """The four-bottle water sampler as a payload (chapter section 4.2).
 
-Declares its parameters (``USV_SMPL_*``), its commands (sample, pump stop, reset), its mission
-item (sample here), its servo outputs (the pump ``USV_CH_PUMP`` and the bottle valve
-``USV_CH_VALVE``), its status message (USV_SAMPLER_STATUS) and their dialect entries.  The
-device is in :mod:`.device`, the mission item in :mod:`.mission`, the MAVLink side in
-:mod:`.mavlink`.
+Declares its parameters (``USV_SMPL_*``) and, in :func:`build`, its commands (sample, pump stop,
+reset), its mission item (sample here), its servo outputs (the pump ``USV_CH_PUMP`` and the
+bottle valve ``USV_CH_VALVE``), its status message (USV_SAMPLER_STATUS) and their dialect
+entries.  The device is in :mod:`.device`, the mission item in :mod:`.mission`, the MAVLink side
+in :mod:`.mavlink` (imported when a vehicle is built: reading the parameter table stays light).
 """
 
 from __future__ import annotations
 
-import contextlib
-from functools import partial
-
-from companion.mission.items import MissionItem
-from companion.modes.auto_items import AutoRun, MissionAction
-from companion.payloads.registry import (
-    DialectEntries,
-    Payload,
-    PayloadCommandDecl,
-    PayloadDef,
-    PayloadEnv,
-    ServoChannel,
-    StatusMessage,
-)
+from companion.payloads.registry import Payload, PayloadDef, PayloadEnv
 from companion.payloads.sampler.device import BottleState, SampleJob, SampleRequest, WaterSampler
-from companion.payloads.sampler.mavlink import SamplerCommands, sampler_status_message
-from companion.payloads.sampler.mission import SampleHereItem, check_sample_here
 from companion.payloads.sampler.params import PARAMS
 from companion.payloads.topics import BOTTLE_COUNT
-from mavlink_dialect import UsvCmd
 
-__all__ = ["PARAMS", "PAYLOAD", "BottleState", "SampleJob", "SampleRequest", "WaterSampler", "build"]
+__all__ = ["PARAMS", "PAYLOAD", "STATUS_MSG_ID", "BottleState", "SampleJob", "SampleRequest", "WaterSampler",
+           "build"]
 
 STATUS_MSG_ID = 43001
 VALVE_CLOSED_US, VALVE_STEP_US = 1000, 200
 """Valve servo: 1000 us all closed, 1200/1400/1600/1800 us = bottle 1-4."""
 
-DIALECT = DialectEntries(
-    commands={UsvCmd.NAV_SAMPLE_HERE: "USV_CMD_NAV_SAMPLE_HERE", UsvCmd.SAMPLE: "USV_CMD_SAMPLE",
-              UsvCmd.PUMP_STOP: "USV_CMD_PUMP_STOP", UsvCmd.SAMPLER_RESET: "USV_CMD_SAMPLER_RESET"},
-    messages={STATUS_MSG_ID: "USV_SAMPLER_STATUS"})
-
 
 def build(env: PayloadEnv) -> Payload:
+    """The sampler of one vehicle and everything it declares."""
+    import contextlib
+    from functools import partial
+
+    from companion.mission.items import MissionItem
+    from companion.modes.auto_items import AutoRun, MissionAction
+    from companion.payloads.registry import DialectEntries, PayloadCommandDecl, ServoChannel, StatusMessage
+    from companion.payloads.sampler.mavlink import SamplerCommands, sampler_status_message
+    from companion.payloads.sampler.mission import SampleHereItem, check_sample_here
+    from mavlink_dialect import UsvCmd
+
+    dialect = DialectEntries(
+        commands={UsvCmd.NAV_SAMPLE_HERE: "USV_CMD_NAV_SAMPLE_HERE", UsvCmd.SAMPLE: "USV_CMD_SAMPLE",
+                  UsvCmd.PUMP_STOP: "USV_CMD_PUMP_STOP", UsvCmd.SAMPLER_RESET: "USV_CMD_SAMPLER_RESET"},
+        messages={STATUS_MSG_ID: "USV_SAMPLER_STATUS"})
     sampler = WaterSampler(env.ctx, env.outputs, env.samplelog)
     params, outputs = env.ctx.params, env.outputs
     commands = SamplerCommands(sampler, env.ctx.clock)
@@ -75,7 +70,7 @@ def build(env: PayloadEnv) -> Payload:
         servo_channels=(ServoChannel("USV_CH_PUMP", 8, "sampler pump", pump_pulse_us),
                         ServoChannel("USV_CH_VALVE", 4, "sampler valve", valve_pulse_us)),
         status=(StatusMessage(STATUS_MSG_ID, partial(sampler_status_message, sampler)),),
-        dialect=DIALECT, stop=stop)
+        dialect=dialect, stop=stop)
 
 
 PAYLOAD = PayloadDef("sampler", PARAMS, build)
