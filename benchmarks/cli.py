@@ -17,6 +17,8 @@ HELP = "run the benchmarks and print every figure as one JSON object"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("names", nargs="*", metavar="NAME",
+                        help="run only these benchmarks (same as --only), e.g. 'usv bench nav'")
     parser.add_argument("--quick", action="store_true", help="short runs (for smoke tests)")
     parser.add_argument("--only", action="append", default=None, choices=sorted(BENCHMARKS),
                         help="run only this benchmark (repeatable)")
@@ -52,7 +54,12 @@ def run_benchmarks(names: list[str], quick: bool, plots_dir: str | None = None) 
 
 
 def run(args: argparse.Namespace) -> int:
-    names = args.only or list(BENCHMARKS)
+    unknown = [n for n in args.names if n not in BENCHMARKS]
+    if unknown:
+        print(f"usv bench: unknown benchmark {unknown[0]!r}; choose from {', '.join(sorted(BENCHMARKS))}",
+              file=sys.stderr)
+        return 2
+    names = [*args.names, *(args.only or [])] or list(BENCHMARKS)
     result = run_benchmarks(names, args.quick, args.plots)
     text = json.dumps(result, indent=2, sort_keys=False)
     print(text)

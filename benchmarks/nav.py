@@ -80,7 +80,8 @@ def fly_and_measure(cell: Cell, workdir: Path, keep_truth: bool) -> dict[str, An
     """Worker: fly one cell and compute its figures (the truth log is kept only for plots)."""
     flight = run_cell(cell, workdir)
     out: dict[str, Any] = {"name": cell.name, "cell": asdict(cell), "error": flight.error,
-                           "wall_s": flight.wall_s, "sim_s": flight.sim_s, "params": flight.params}
+                           "wall_s": flight.wall_s, "sim_s": flight.sim_s, "sitl_cpu_s": flight.sitl_cpu_s,
+                           "gcs_cpu_s": flight.gcs_cpu_s, "params": flight.params}
     if flight.error is None:
         try:
             out["figures"] = figures(flight.to_json())
@@ -166,6 +167,15 @@ def spread(cells: list[dict[str, Any]], again: list[dict[str, Any]]) -> dict[str
     return out
 
 
+def cost(results: list[dict[str, Any]]) -> dict[str, float]:
+    """What the flights cost: simulated seconds and CPU seconds (timing figures, noisy when shared)."""
+    sim = sum(r.get("sim_s", 0.0) for r in results)
+    sitl = sum(r.get("sitl_cpu_s", 0.0) for r in results)
+    gcs = sum(r.get("gcs_cpu_s", 0.0) for r in results)
+    return {"flights": len(results), "sim_s_total": round(sim, 1), "sitl_cpu_s_total": round(sitl, 1),
+            "gcs_cpu_s_total": round(gcs, 1), "sim_s_per_sitl_cpu_s": round(sim / sitl, 1) if sitl else 0.0}
+
+
 def run(quick: bool, plots_dir: Path | str | None = None,
         seeds: tuple[int, ...] = REPORTING_SEEDS) -> dict[str, Any]:
     t0 = time.perf_counter()
@@ -210,6 +220,7 @@ def run(quick: bool, plots_dir: Path | str | None = None,
             from benchmarks.nav_plots import plot_worst
 
             out["plots"] = plot_worst(cells, worst_figs, Path(plots_dir))
+        out["cost"] = cost(results)
         out["wall_s"] = round(time.perf_counter() - t0, 1)
         return out
     finally:

@@ -153,9 +153,11 @@ class GroundStation:
                 self._samples_seen.add(key)
                 tl.add(t, "sample_reported", [key[0], float(msg.last_sample_distance)])
 
-    def wait(self, done: Callable[[], bool], *, vehicle_s: float, wall_s: float = 120.0,
+    def wait(self, done: Callable[[], bool], *, vehicle_s: float, wall_s: float | None = None,
              what: str = "condition") -> None:
-        """Pump until ``done()``; fail after ``vehicle_s`` of vehicle time or ``wall_s`` of wall time."""
+        """Pump until ``done()``; fail after ``vehicle_s`` of vehicle time or ``wall_s`` of wall time
+        (default: as long as ``vehicle_s`` at a third of real time, a guard against a stalled vehicle)."""
+        wall_s = 30.0 + 3.0 * vehicle_s if wall_s is None else wall_s
         start_t, start_wall = self.t_s, time.monotonic()
         while not done():
             if self.t_s - start_t > vehicle_s or time.monotonic() - start_wall > wall_s:
@@ -174,7 +176,7 @@ class GroundStation:
     def sleep_vehicle(self, seconds: float) -> None:
         """Let ``seconds`` of vehicle time pass (the ground station keeps listening)."""
         end = self.t_s + seconds
-        self.wait(lambda: self.t_s >= end, vehicle_s=seconds + 5.0, wall_s=600.0, what="vehicle time")
+        self.wait(lambda: self.t_s >= end, vehicle_s=seconds + 5.0, what="vehicle time")
 
     # -- sending --------------------------------------------------------------------------
     def connect(self, wall_s: float = 60.0) -> None:

@@ -217,10 +217,10 @@ def figures(flight: dict[str, Any]) -> dict[str, Any]:
     t_goto = tl.one("goto")
     t_loiter = tl.one("set_mode", MODE_LOITER)
     t_rtl = tl.one("set_mode", MODE_RTL)
-    t_square = tl.one("set_mode", MODE_AUTO)
-    t_square_end = tl.one("phase", "square_done")
-    t_samples = tl.one("set_mode", MODE_AUTO, after_s=t_square_end)
-    t_end = tl.one("phase", "samples_done")
+    t_square, t_end = tl.one("set_mode", MODE_AUTO), tl.one("phase", "mission_done")
+    reached = tl.reached(t_square, t_end)
+    n_corners = len(plan["square_ne"])
+    t_samples = reached.get(n_corners, t_end)  # the square's last corner, where sampling begins
     loiter_s = min(120.0, t_rtl - t_loiter)
     radius = max(float(params["USV_SMPL_CIRC_M"]), float(params["USV_TURN_RAD"]))
     reported = [e[2] for e in flight["events"] if e[1] == "sample_reported"]
@@ -228,9 +228,10 @@ def figures(flight: dict[str, Any]) -> dict[str, Any]:
         "goto_arrival": arrival(truth, t_goto, t_loiter, tuple(plan["goto_ne"]), wp_radius),
         "loiter": loiter(truth, t_loiter, loiter_s),
         "rtl_arrival": arrival(truth, t_rtl, t_square, (0.0, 0.0), wp_radius),
-        "square": square(truth, t_square, t_square_end, [tuple(c) for c in plan["square_ne"]],
-                         tl.reached(t_square, t_square_end)),
+        "square": square(truth, t_square, t_samples, [tuple(c) for c in plan["square_ne"]],
+                         {k: t for k, t in reached.items() if k <= n_corners}),
         "sampling": sampling(truth, t_samples, t_end, [tuple(p) for p in plan["sample_points_ne"]],
-                             tl.reached(t_samples, t_end), radius, reported),
+                             {k - n_corners: t for k, t in reached.items() if k > n_corners}, radius,
+                             reported),
         "telemetry_vs_truth_rms_m": telemetry_vs_truth(truth, flight.get("positions", []), home),
     }

@@ -23,15 +23,13 @@ PLOTTED = {
 """Figure -> the phase its plot shows."""
 
 
-def _phase_window(tl: Timeline, phase: str) -> tuple[float, float]:
+def _phase_window(tl: Timeline, phase: str, plan_corners: list[Any]) -> tuple[float, float]:
     t_loiter = tl.one("set_mode", MODE_LOITER)
     t_rtl = tl.one("set_mode", MODE_RTL)
-    t_square = tl.one("set_mode", MODE_AUTO)
-    t_square_end = tl.one("phase", "square_done")
+    t_square, t_end = tl.one("set_mode", MODE_AUTO), tl.one("phase", "mission_done")
+    t_samples = tl.reached(t_square, t_end).get(len(plan_corners), t_end)
     windows = {"goto": (tl.one("goto"), t_loiter), "loiter": (t_loiter, t_rtl), "rtl": (t_rtl, t_square),
-               "square": (t_square, t_square_end),
-               "samples": (tl.one("set_mode", MODE_AUTO, after_s=t_square_end),
-                           tl.one("phase", "samples_done"))}
+               "square": (t_square, t_samples), "samples": (t_samples, t_end)}
     return windows[phase]
 
 
@@ -46,7 +44,7 @@ def plot_cell(result: dict[str, Any], figure: str, path: Path) -> None:
     truth = Truth(Path(flight["truth_csv"]), (flight["home"][0], flight["home"][1]))
     tl = Timeline(flight["events"])
     phase = PLOTTED[figure]
-    t0, t1 = _phase_window(tl, phase)
+    t0, t1 = _phase_window(tl, phase, plan["square_ne"])
     idx = truth.window(t0, t1)
     fig, (ax, ax_t) = plt.subplots(1, 2, figsize=(12, 5.5))
     ax.plot(truth.e[idx], truth.n[idx], lw=1.0, color="tab:blue", label="boat (truth)")
