@@ -176,16 +176,21 @@ def cost(results: list[dict[str, Any]]) -> dict[str, float]:
             "gcs_cpu_s_total": round(gcs, 1), "sim_s_per_sitl_cpu_s": round(sim / sitl, 1) if sitl else 0.0}
 
 
-def run(quick: bool, plots_dir: Path | str | None = None,
-        seeds: tuple[int, ...] = REPORTING_SEEDS) -> dict[str, Any]:
+def run(quick: bool, plots_dir: Path | str | None = None, seeds: tuple[int, ...] = REPORTING_SEEDS,
+        keep_dir: Path | str | None = None) -> dict[str, Any]:
+    """The grid (``quick``: the reduced one), figures, targets; ``plots_dir``: PNGs of the worst runs;
+    ``keep_dir``: keep every flight there (truth log, ground-station timeline) for re-analysis."""
     t0 = time.perf_counter()
     creep = idle_creep_mps()
     grid = reduced_grid(seeds) if quick else full_grid(seeds)
     repeat = [] if quick else reduced_grid(seeds)[:2]
     issue = [] if quick or seeds != REPORTING_SEEDS else list(ISSUE_CASES)
-    root = Path(tempfile.mkdtemp(prefix="usv-bench-nav-"))
+    root = Path(keep_dir) if keep_dir is not None else Path(tempfile.mkdtemp(prefix="usv-bench-nav-"))
     try:
-        results = fly_all(grid + repeat + issue, root, keep_truth=plots_dir is not None)
+        keep = plots_dir is not None or keep_dir is not None
+        results = fly_all(grid + repeat + issue, root, keep_truth=keep)
+        if keep_dir is not None:
+            (root / "results.json").write_text(json.dumps(results), encoding="utf-8")
         cells, again, issue_res = (results[:len(grid)], results[len(grid):len(grid) + len(repeat)],
                                    results[len(grid) + len(repeat):])
         errors = [f"{r['name']}: {r['error']}" for r in cells if r.get("error")]
@@ -224,7 +229,8 @@ def run(quick: bool, plots_dir: Path | str | None = None,
         out["wall_s"] = round(time.perf_counter() - t0, 1)
         return out
     finally:
-        shutil.rmtree(root, ignore_errors=True)
+        if keep_dir is None:
+            shutil.rmtree(root, ignore_errors=True)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -234,8 +240,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seeds", choices=("reporting", "tuning"), default="reporting")
     parser.add_argument("--plots", default=None, help="write PNG plots of the worst runs here")
     parser.add_argument("--out", default=None, help="also write the JSON here")
+    parser.add_argument("--keep", default=None, metavar="DIR",
+                        help="keep every flight here (truth logs, timelines, results.json)")
     args = parser.parse_args(argv)
-    result = run(args.quick, args.plots, REPORTING_SEEDS if args.seeds == "reporting" else TUNING_SEEDS)
+    result = run(args.quick, args.plots, REPORTING_SEEDS if args.seeds == "reporting" else TUNING_SEEDS,
+                 args.keep)
     text = json.dumps(result, indent=2)
     print(text)
     if args.out:
