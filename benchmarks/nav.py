@@ -47,7 +47,7 @@ WORKERS = 2
 
 FIGURES = ("loiter_max_m", "loiter_rms_m", "goto_overshoot_m", "goto_after_arrival_max_m", "rtl_overshoot_m",
            "rtl_after_arrival_max_m", "square_side_max_m", "square_mid_leg_rms_m", "square_mid_leg_max_m",
-           "circle_error_max_m", "circle_error_rms_m", "sample_distance_max_m")
+           "circle_error_max_m", "circle_error_rms_m", "sample_distance_max_m", "fill_distance_max_m")
 """Flat figure names (all metres, lower is better)."""
 
 
@@ -73,6 +73,7 @@ def flat(fig: dict[str, Any]) -> dict[str, float]:
             "square_mid_leg_max_m": sq["mid_leg_max_m"], "circle_error_max_m": smp["circle_error_max_m"],
             "circle_error_rms_m": smp["circle_error_rms_m"],
             "sample_distance_max_m": smp["sample_distance_max_m"],
+            "fill_distance_max_m": smp["fill_distance_max_m"],
             "samples_taken": smp["samples_taken"]}
 
 
@@ -176,56 +177,27 @@ def cost(results: list[dict[str, Any]]) -> dict[str, float]:
             "gcs_cpu_s_total": round(gcs, 1), "sim_s_per_sitl_cpu_s": round(sim / sitl, 1) if sitl else 0.0}
 
 
-def run(quick: bool, plots_dir: Path | str | None = None, seeds: tuple[int, ...] = REPORTING_SEEDS,
-        keep_dir: Path | str | None = None) -> dict[str, Any]:
-    """The grid (``quick``: the reduced one), figures, targets; ``plots_dir``: PNGs of the worst runs;
-    ``keep_dir``: keep every flight there (truth log, ground-station timeline) for re-analysis."""
-    t0 = time.perf_counter()
-    creep = idle_creep_mps()
+def cells_to_fly(quick: bool, seeds: tuple[int, ...]) -> tuple[list[Cell], list[Cell], list[Cell]]:
+    """The grid, the cells flown a second time (repeatability) and the issue's own cases."""
     grid = reduced_grid(seeds) if quick else full_grid(seeds)
     repeat = [] if quick else reduced_grid(seeds)[:2]
     issue = [] if quick or seeds != REPORTING_SEEDS else list(ISSUE_CASES)
+    return grid, repeat, issue
+
+
+def run(quick: bool, plots_dir: Path | str | None = None, seeds: tuple[int, ...] = REPORTING_SEEDS,
+        keep_dir: Path | str | None = None) -> dict[str, Any]:
+    """The grid (``quick``: the reduced one), figures, targets; ``plots_dir``: PNGs of the worst runs;
+    ``keep_dir``: keep every flight there (truth log, ground-station timeline) for :func:`reanalyse`."""
+    t0 = time.perf_counter()
+    grid, repeat, issue = cells_to_fly(quick, seeds)
     root = Path(keep_dir) if keep_dir is not None else Path(tempfile.mkdtemp(prefix="usv-bench-nav-"))
     try:
         keep = plots_dir is not None or keep_dir is not None
         results = fly_all(grid + repeat + issue, root, keep_truth=keep)
         if keep_dir is not None:
             (root / "results.json").write_text(json.dumps(results), encoding="utf-8")
-        cells, again, issue_res = (results[:len(grid)], results[len(grid):len(grid) + len(repeat)],
-                                   results[len(grid) + len(repeat):])
-        errors = [f"{r['name']}: {r['error']}" for r in cells if r.get("error")]
-        params: dict[str, float] = next((r["params"] for r in cells if r.get("params")), {})
-        worst_figs = worst(cells, creep)
-        out: dict[str, Any] = {
-            "what": "the product: usv sitl (default parameters) flown over MAVLink UDP by a pymavlink ground "
-                    "station in another process; not the rig (that is 'control')",
-            "method": {
-                "positions": "simulator truth (usv sitl --truth-log, 20 Hz of simulated time); telemetry "
-                             "only cross-checked (telemetry_vs_truth_rms_m per cell)",
-                "sitl_speedup": SITL_SPEEDUP, "gcs_heartbeat_period_wall_s": GCS_HEARTBEAT_PERIOD_WALL_S,
-                "global_position_int_hz": GPI_RATE_HZ, "arrival_hold_s": ARRIVAL_HOLD_S, "loiter_s": LOITER_S,
-                "workers": WORKERS, "idle_creep_mps": creep,
-                "weather_slots": [asdict(w) for w in WEATHER_SLOTS],
-                "script": "arm; GUIDED go-to 30 m N 30 m E; LOITER 120 s; RTL; AUTO 50 m square; AUTO four "
-                          "USV_CMD_NAV_SAMPLE_HERE items (default radius, bottle and fill time)"},
-            "seeds": {"reporting": list(seeds), "tuning": list(TUNING_SEEDS),
-                      "note": "figures come from the reporting seeds only; tune on the tuning seeds "
-                              "(python -m benchmarks.nav --seeds tuning)"},
-            "quick": quick, "cells_flown": len(cells), "errors": errors,
-            "worst": worst_figs, "targets": judge(worst_figs, params, errors),
-            "ardurover_reference": ARDUROVER_REFERENCE,
-            "cells": [{k: v for k, v in r.items() if k not in ("flat", "params", "flight")} for r in cells],
-        }
-        if repeat:
-            out["repeatability"] = spread(cells, again)
-        if issue:
-            out["issue_cases"] = [{k: v for k, v in r.items() if k not in ("params", "flight")}
-                                  for r in issue_res]
-        if plots_dir is not None:
-            from benchmarks.nav_plots import plot_worst
-
-            out["plots"] = plot_worst(cells, worst_figs, Path(plots_dir))
-        out["cost"] = cost(results)
+        out = report(results, len(grid), len(repeat), quick, seeds, plots_dir)
         out["wall_s"] = round(time.perf_counter() - t0, 1)
         return out
     finally:
@@ -233,8 +205,63 @@ def run(quick: bool, plots_dir: Path | str | None = None, seeds: tuple[int, ...]
             shutil.rmtree(root, ignore_errors=True)
 
 
+def reanalyse(keep_dir: Path, quick: bool, seeds: tuple[int, ...],
+              plots_dir: Path | str | None) -> dict[str, Any]:
+    """The report of flights kept by ``run(keep_dir=...)``, figures recomputed from their truth logs."""
+    results = json.loads((Path(keep_dir) / "results.json").read_text(encoding="utf-8"))
+    for r in results:
+        if "flight" in r and not r["flight"].get("error"):
+            r["figures"] = figures(r["flight"])
+            r["flat"] = flat(r["figures"])
+    grid, repeat, _ = cells_to_fly(quick, seeds)
+    return report(results, len(grid), len(repeat), quick, seeds, plots_dir)
+
+
+def report(results: list[dict[str, Any]], n_grid: int, n_repeat: int, quick: bool, seeds: tuple[int, ...],
+           plots_dir: Path | str | None) -> dict[str, Any]:
+    """Worst case, targets, reference, cells, repeatability, issue cases and cost of the flights."""
+    creep = idle_creep_mps()
+    cells, again, issue_res = results[:n_grid], results[n_grid:n_grid + n_repeat], results[n_grid + n_repeat:]
+    errors = [f"{r['name']}: {r['error']}" for r in cells if r.get("error")]
+    params: dict[str, float] = next((r["params"] for r in cells if r.get("params")), {})
+    worst_figs = worst(cells, creep)
+    out: dict[str, Any] = {
+        "what": "the product: usv sitl (default parameters) flown over MAVLink UDP by a pymavlink ground "
+                "station in another process; not the rig (that is 'control')",
+        "method": {
+            "positions": "simulator truth (usv sitl --truth-log, 20 Hz of simulated time); telemetry "
+                         "only cross-checked (telemetry_vs_truth_rms_m per cell)",
+            "sitl_speedup": SITL_SPEEDUP, "gcs_heartbeat_period_wall_s": GCS_HEARTBEAT_PERIOD_WALL_S,
+            "global_position_int_hz": GPI_RATE_HZ, "arrival_hold_s": ARRIVAL_HOLD_S, "loiter_s": LOITER_S,
+            "workers": WORKERS, "idle_creep_mps": creep,
+            "weather_slots": [asdict(w) for w in WEATHER_SLOTS],
+            "script": "arm; GUIDED go-to 30 m N 30 m E, 30 s there; LOITER 120 s; RTL, 30 s there; "
+                      "AUTO: 50 m square then four USV_CMD_NAV_SAMPLE_HERE items (default radius, bottle "
+                      "and fill time)"},
+        "seeds": {"reporting": list(seeds), "tuning": list(TUNING_SEEDS),
+                  "note": "figures come from the reporting seeds only; tune on the tuning seeds "
+                          "(python -m benchmarks.nav --seeds tuning)"},
+        "quick": quick, "cells_flown": len(cells), "errors": errors,
+        "worst": worst_figs, "targets": judge(worst_figs, params, errors),
+        "ardurover_reference": ARDUROVER_REFERENCE,
+        "cells": [{k: v for k, v in r.items() if k not in ("flat", "params", "flight")} for r in cells],
+    }
+    if again:
+        out["repeatability"] = spread(cells, again)
+    if issue_res:
+        out["issue_cases"] = [{k: v for k, v in r.items() if k not in ("params", "flight")}
+                              for r in issue_res]
+    if plots_dir is not None:
+        from benchmarks.nav_plots import plot_worst
+
+        out["plots"] = plot_worst(cells, worst_figs, Path(plots_dir))
+    out["cost"] = cost(results)
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
-    """``python -m benchmarks.nav [--quick] [--seeds reporting|tuning] [--plots DIR] [--out FILE]``."""
+    """``python -m benchmarks.nav [--quick] [--seeds reporting|tuning] [--plots DIR] [--out FILE]
+    [--keep DIR | --reanalyse DIR]``."""
     parser = argparse.ArgumentParser(prog="python -m benchmarks.nav", description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="the reduced grid only")
     parser.add_argument("--seeds", choices=("reporting", "tuning"), default="reporting")
@@ -242,9 +269,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", default=None, help="also write the JSON here")
     parser.add_argument("--keep", default=None, metavar="DIR",
                         help="keep every flight here (truth logs, timelines, results.json)")
+    parser.add_argument("--reanalyse", default=None, metavar="DIR",
+                        help="fly nothing: recompute the report from the flights kept in DIR (--keep)")
     args = parser.parse_args(argv)
-    result = run(args.quick, args.plots, REPORTING_SEEDS if args.seeds == "reporting" else TUNING_SEEDS,
-                 args.keep)
+    seeds = REPORTING_SEEDS if args.seeds == "reporting" else TUNING_SEEDS
+    if args.reanalyse:
+        result = reanalyse(Path(args.reanalyse), args.quick, seeds, args.plots)
+    else:
+        result = run(args.quick, args.plots, seeds, args.keep)
     text = json.dumps(result, indent=2)
     print(text)
     if args.out:

@@ -64,6 +64,10 @@ def reduced_grid(seeds: tuple[int, ...] = REPORTING_SEEDS) -> list[Cell]:
     return [cell(1.2, 90.0, 0, seeds[0]), cell(0.5, 0.0, 0, seeds[0]), cell(0.3, 180.0, 2, seeds[2])]
 
 
+SAMPLE_CIRCLE_M = 2.5
+"""The chapter's sampling circle (section 4.2): the boat must be inside it whenever a bottle fills."""
+
+
 @dataclass(frozen=True)
 class Target:
     """A figure of the issue's table: worst over the grid must be at most ``limit`` (m)."""
@@ -87,8 +91,10 @@ def targets(turn_radius_m: float, circle_radius_m: float) -> list[Target]:
         Target("circle_error_max_m", 1.2, "sampling circle: distance from the commanded circle while "
                "circling (chapter Fig. 13 tracking error) <= 1.2 m"),
         Target("sample_distance_max_m", circle_radius_m + 0.6,
-               f"every sample <= circle radius ({circle_radius_m:g} m) + 0.6 m from its point, "
-               "all the time the bottle fills"),
+               f"every sample <= circle radius ({circle_radius_m:g} m) + 0.6 m from its point (where the "
+               "bottle stopped filling)"),
+        Target("fill_distance_max_m", SAMPLE_CIRCLE_M,
+               f"the boat inside the chapter's {SAMPLE_CIRCLE_M:g} m circle whenever a bottle fills"),
     ]
 
 

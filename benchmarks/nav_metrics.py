@@ -22,8 +22,11 @@ Definitions (the issue's, made precise where it is silent):
 * sampling circle: from the first time the boat comes within radius + 0.5 m of an item's point
   (the vehicle's own "on the circle" rule) until the item is reached, ``| distance - radius |``
   (the chapter's Fig. 13 tracking error), max and RMS; radius = max(USV_SMPL_CIRC_M, USV_TURN_RAD)
-  as the vehicle applies it to an item with radius 0.  Each sample: the largest distance from its
-  point while the sampler pump runs into that bottle (truth log ``pump_on``/``valve``).
+  as the vehicle applies it to an item with radius 0.  Each sample (truth log ``pump_on``/``valve``):
+  ``distance_at_end_m``, the distance from its point when the bottle stopped filling (where the
+  sample log records it: the sample's position), and ``distance_max_m``, the largest distance from
+  its point while the pump ran into that bottle (the chapter's "inside the 2.5 m circle whenever a
+  bottle fills").
 """
 
 from __future__ import annotations
@@ -190,7 +193,8 @@ def sampling(truth: Truth, t0: float, t1: float, points: list[tuple[float, float
     all_err = np.concatenate(errors)
     return {"radius_m": radius_m, "circle_error_max_m": _r(all_err.max()),
             "circle_error_rms_m": _r(_rms(all_err[np.isfinite(all_err)])),
-            "sample_distance_max_m": max((s["distance_max_m"] for s in samples), default=math.inf),
+            "sample_distance_max_m": max((s["distance_at_end_m"] for s in samples), default=math.inf),
+            "fill_distance_max_m": max((s["distance_max_m"] for s in samples), default=math.inf),
             "samples_taken": len(samples), "items": items, "samples": samples,
             "companion_reported_distance_m": [[int(b), _r(dist)] for b, dist in reported],
             "duration_s": _r(t1 - t0)}

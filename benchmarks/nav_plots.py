@@ -17,6 +17,7 @@ PLOTTED = {
     "square_mid_leg_max_m": "square",
     "circle_error_max_m": "samples",
     "sample_distance_max_m": "samples",
+    "fill_distance_max_m": "samples",
     "goto_overshoot_m": "goto",
     "rtl_overshoot_m": "rtl",
 }
