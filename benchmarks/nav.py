@@ -91,6 +91,7 @@ def fly_and_measure(cell: Cell, workdir: Path, keep_truth: bool) -> dict[str, An
             out["error"] = f"figures: {exc}"
     if keep_truth:
         out["flight"] = {k: v for k, v in flight.to_json().items() if k != "positions"}
+        (workdir / "result.json").write_text(json.dumps(out), encoding="utf-8")
     else:
         shutil.rmtree(workdir, ignore_errors=True)
     return out
