@@ -60,8 +60,12 @@ def full_grid(seeds: tuple[int, ...] = REPORTING_SEEDS) -> list[Cell]:
 
 
 def reduced_grid(seeds: tuple[int, ...] = REPORTING_SEEDS) -> list[Cell]:
-    """The few hardest cells of the full grid (the regression test and ``usv bench --quick``)."""
-    return [cell(1.2, 90.0, 0, seeds[0]), cell(0.5, 0.0, 0, seeds[0]), cell(0.3, 180.0, 2, seeds[2])]
+    """Two of the hardest cells of the full grid (the regression test, ``usv bench --quick`` and the
+    repeatability pair), one flight each per worker: a 1.2 m/s current with 6 m/s of wind and Hs 0.3 m
+    pushing the same way (worst LOITER above the jet's idle creep; the circle, the square and the
+    samples all miss there today), and 0.5 m/s with 3 m/s of wind across it (worst LOITER below idle
+    creep).  Chosen from the full grid on main at 08b0103."""
+    return [cell(1.2, 90.0, 0, seeds[0]), cell(0.5, 180.0, 1, seeds[1])]
 
 
 SAMPLE_CIRCLE_M = 2.5

@@ -12,7 +12,8 @@ import numpy as np
 from benchmarks.nav_metrics import MODE_AUTO, MODE_LOITER, MODE_RTL, Timeline, Truth, path_distance
 
 PLOTTED = {
-    "loiter_max_m": "loiter",
+    "loiter_max_m_current_above_creep": "loiter",
+    "loiter_max_m_current_below_creep": "loiter",
     "square_side_max_m": "square",
     "square_mid_leg_max_m": "square",
     "circle_error_max_m": "samples",
@@ -34,7 +35,7 @@ def _phase_window(tl: Timeline, phase: str, plan_corners: list[Any]) -> tuple[fl
     return windows[phase]
 
 
-def plot_cell(result: dict[str, Any], figure: str, path: Path) -> None:
+def plot_cell(result: dict[str, Any], figure: str, value: float, path: Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -93,7 +94,6 @@ def plot_cell(result: dict[str, Any], figure: str, path: Path) -> None:
     ax.grid(alpha=0.3)
     ax_t.set_xlabel(f"time in the {phase} phase (s)")
     ax_t.grid(alpha=0.3)
-    value = result["flat"][figure]
     fig.suptitle(f"worst {figure} = {value:.2f} m\n{result['name']}", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
@@ -106,10 +106,10 @@ def plot_worst(results: list[dict[str, Any]], worst: dict[str, dict[str, Any]], 
     by_name = {r["name"]: r for r in results if "flight" in r and "flat" in r}
     written = []
     for figure in PLOTTED:
-        cell = worst.get(figure, {}).get("cell")
-        if cell not in by_name:
+        row = worst.get(figure, {})
+        if row.get("cell") not in by_name:
             continue
         path = out_dir / f"worst_{figure}.png"
-        plot_cell(by_name[cell], figure, path)
+        plot_cell(by_name[row["cell"]], figure, float(row["value"]), path)
         written.append(str(path))
     return written

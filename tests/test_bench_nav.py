@@ -21,17 +21,30 @@ from benchmarks.nav_grid import REPORTING_SEEDS, reduced_grid
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow, pytest.mark.timeout(1200)]
 
-TODAY = "usv bench nav, main at 08b0103, reduced grid: "
+TODAY = "usv bench nav, main at 08b0103, worst of these cells [full grid]: "
 MISSED_TODAY = {
-    "loiter_max_m_current_above_creep": TODAY + "11.7 m (1.2 m/s toward 90, wind 6 m/s with it, Hs 0.3)",
-    "loiter_max_m_current_below_creep": TODAY + "8.9 m (0.3 m/s toward 180, wind 6 m/s against it, Hs 0.3)",
-    "square_side_max_m": TODAY + "5.6-5.7 m (0.5 m/s toward 0, wind 6 m/s with it: the first corner)",
-    "square_mid_leg_rms_m": TODAY + "0.46 m (1.2 m/s toward 90)",
-    "square_mid_leg_max_m": TODAY + "1.7-2.1 m (0.5 m/s toward 0)",
-    "circle_error_max_m": TODAY + "8.2 m (1.2 m/s toward 90); 3-9.5 m at 0.5 m/s",
-    "fill_distance_max_m": TODAY + "2.58-2.65 m: the pump stops only after the boat has left the circle",
+    "loiter_max_m_current_above_creep":
+        TODAY + "11.7-12.2 m [12.2 m]: entered while the boat is still coming back from its GUIDED "
+                "arrival loop",
+    "loiter_max_m_current_below_creep":
+        TODAY + "9.3 m [9.3 m]: two 7-9 m loops when it switches to orbiting, then an orbit 1.5-3.1 m "
+                "from the point",
+    "square_side_max_m": TODAY + "2.3-2.4 m [7.8 m]: corners, and the U-turn that starts the first leg",
+    "square_mid_leg_rms_m": TODAY + "0.45-0.46 m [0.76 m]",
+    "square_mid_leg_max_m": TODAY + "1.2-1.3 m [4.2 m]",
+    "circle_error_max_m": TODAY + "8.2-8.5 m [10.2 m]: every lap the current carries the boat 5-10 m "
+                                  "downstream",
+    "fill_distance_max_m": TODAY + "2.68 m [2.68 m]: the pump stops only after the boat has left the "
+                                   "2.5 m circle",
 }
 """Targets today's product misses on these cells, with the figures measured (the xfail reasons)."""
+STRADDLING_TODAY = {
+    "sample_distance_max_m":
+        TODAY + "2.62 m against 2.6 m [1.8-2.65 m]: a bottle stops filling where the boat leaves the 2.5 m "
+                "circle, so the figure straddles the limit and a strict mark would flip at random "
+                "(fill_distance_max_m is the strict check)",
+}
+"""Targets today's product meets or misses by a few centimetres depending on timing (non-strict xfail)."""
 
 
 @pytest.fixture(scope="module")
@@ -55,8 +68,15 @@ def _target_cases() -> list[Any]:
     names = ["loiter_max_m_current_above_creep", "loiter_max_m_current_below_creep", "square_side_max_m",
              "square_mid_leg_rms_m", "square_mid_leg_max_m", "circle_error_max_m", "sample_distance_max_m",
              "fill_distance_max_m", "samples_taken_min"]
-    return [pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=MISSED_TODAY[n]))
-            if n in MISSED_TODAY else n for n in names]
+    cases: list[Any] = []
+    for n in names:
+        if n in MISSED_TODAY:
+            cases.append(pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=MISSED_TODAY[n])))
+        elif n in STRADDLING_TODAY:
+            cases.append(pytest.param(n, marks=pytest.mark.xfail(strict=False, reason=STRADDLING_TODAY[n])))
+        else:
+            cases.append(n)
+    return cases
 
 
 @pytest.mark.parametrize("figure", _target_cases())
