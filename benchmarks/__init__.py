@@ -14,5 +14,6 @@ BENCHMARKS: dict[str, str] = {
     "sim_lockstep": "benchmarks.sim_lockstep",
     "sim_sitl": "benchmarks.sim_sitl",
     "control": "benchmarks.control",
+    "nav": "benchmarks.nav",
 }
 """Benchmark name -> module with ``run(quick: bool) -> dict``."""

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import inspect
 import json
 import platform
 import sys
@@ -16,13 +17,17 @@ HELP = "run the benchmarks and print every figure as one JSON object"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("names", nargs="*", metavar="NAME",
+                        help="run only these benchmarks (same as --only), e.g. 'usv bench nav'")
     parser.add_argument("--quick", action="store_true", help="short runs (for smoke tests)")
     parser.add_argument("--only", action="append", default=None, choices=sorted(BENCHMARKS),
                         help="run only this benchmark (repeatable)")
     parser.add_argument("--out", default=None, help="also write the JSON to this file")
+    parser.add_argument("--plots", default=None, metavar="DIR",
+                        help="write PNG plots (benchmarks that make them, e.g. nav: its worst runs) to DIR")
 
 
-def run_benchmarks(names: list[str], quick: bool) -> dict[str, Any]:
+def run_benchmarks(names: list[str], quick: bool, plots_dir: str | None = None) -> dict[str, Any]:
     result: dict[str, Any] = {
         "meta": {
             "python": platform.python_version(),
@@ -36,7 +41,10 @@ def run_benchmarks(names: list[str], quick: bool) -> dict[str, Any]:
         module = importlib.import_module(BENCHMARKS[name])
         t0 = time.perf_counter()
         try:
-            figures = module.run(quick)
+            if plots_dir is not None and "plots_dir" in inspect.signature(module.run).parameters:
+                figures = module.run(quick, plots_dir=plots_dir)
+            else:
+                figures = module.run(quick)
         except Exception as exc:  # one broken benchmark must not hide the others
             figures = {"error": f"{type(exc).__name__}: {exc}"}
         figures["wall_time_s"] = round(time.perf_counter() - t0, 3)
@@ -46,8 +54,13 @@ def run_benchmarks(names: list[str], quick: bool) -> dict[str, Any]:
 
 
 def run(args: argparse.Namespace) -> int:
-    names = args.only or list(BENCHMARKS)
-    result = run_benchmarks(names, args.quick)
+    unknown = [n for n in args.names if n not in BENCHMARKS]
+    if unknown:
+        print(f"usv bench: unknown benchmark {unknown[0]!r}; choose from {', '.join(sorted(BENCHMARKS))}",
+              file=sys.stderr)
+        return 2
+    names = [*args.names, *(args.only or [])] or list(BENCHMARKS)
+    result = run_benchmarks(names, args.quick, args.plots)
     text = json.dumps(result, indent=2, sort_keys=False)
     print(text)
     if args.out:

@@ -110,6 +110,11 @@ class GpsInsModel:
         self._noise: Iterator[float] = iter(())  # pre-drawn standard normals, refilled in blocks (speed)
         self.samples = 0
 
+    def lat_lon(self, north_m: float, east_m: float) -> tuple[float, float]:
+        """Geodetic degrees of a position relative to home, as this device converts it (no noise)."""
+        return (self.home_lat_deg + north_m / self._m_per_deg_lat,
+                self.home_lon_deg + east_m / self._m_per_deg_lon)
+
     def _n(self) -> float:
         try:
             return next(self._noise)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from companion.app import Application
 from companion.clock import SimClock
@@ -17,9 +18,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_sim_arguments(parser)
     parser.add_argument("--duration", type=float, default=None,
                         help="stop after this many seconds of simulated time")
+    parser.add_argument("--truth-log", type=Path, default=None, metavar="FILE.csv",
+                        help="write the simulated boat's true position (20 Hz of simulated time) to this CSV "
+                             "(for benchmarks; see sim_bridge/truthlog.py)")
 
 
-async def run_sitl(config: Config, duration_s: float | None = None) -> None:
+async def run_sitl(config: Config, duration_s: float | None = None, truth_log: Path | None = None) -> None:
     from companion.runtime import ReadyBanner, build_companion, build_context  # the whole stack: import late
     from sim_bridge.runtime import SimulatorService
 
@@ -27,6 +31,10 @@ async def run_sitl(config: Config, duration_s: float | None = None) -> None:
     ctx = build_context(config, clock)
     sim = SimulatorService(ctx, clock)  # the simulated boat, in-memory pipes to the companion
     app = Application([sim, *build_companion(ctx, sim.companion_links).in_start_order()])
+    if truth_log is not None:
+        from sim_bridge.truthlog import TruthLog
+
+        app.add(TruthLog(sim.boat, clock, truth_log))
     app.add(ReadyBanner(ctx, "usv sitl: simulated boat + companion"))
     if duration_s is not None:
         from sim_bridge.runtime import StopAfter
@@ -37,4 +45,4 @@ async def run_sitl(config: Config, duration_s: float | None = None) -> None:
 
 def run(args: argparse.Namespace) -> int:
     config = config_from_args(args)
-    return run_async(run_sitl(config, args.duration))
+    return run_async(run_sitl(config, args.duration, args.truth_log))

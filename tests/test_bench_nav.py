@@ -1,0 +1,86 @@
+"""Issue 14's targets on the product, as a user flies it: the reduced grid of ``usv bench nav``.
+
+Each cell is a ``usv sitl`` process with default parameters flown over MAVLink UDP by the bench's
+pymavlink ground station (GUIDED go-to, LOITER 120 s, RTL, the 50 m square and the four-point
+sampling mission); figures come from the simulator's truth log.  The cells are the hardest of the
+full grid (:func:`benchmarks.nav_grid.reduced_grid`), on reporting seeds.  The assertions are the
+issue's targets.  Where today's product misses one, the test is ``xfail(strict=True)`` with the figures
+measured on it: whoever makes the product meet the target removes the mark (an unexpected pass fails).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from benchmarks.nav import fly_all, report
+from benchmarks.nav_grid import REPORTING_SEEDS, reduced_grid
+
+pytestmark = [pytest.mark.integration, pytest.mark.slow, pytest.mark.timeout(1200)]
+
+TODAY = "usv bench nav, main at 08b0103, worst of these cells [full grid]: "
+MISSED_TODAY = {
+    "loiter_max_m_current_above_creep":
+        TODAY + "11.7-12.2 m [12.2 m]: entered while the boat is still coming back from its GUIDED "
+                "arrival loop",
+    "loiter_max_m_current_below_creep":
+        TODAY + "9.3 m [9.3 m]: two 7-9 m loops when it switches to orbiting, then an orbit 1.5-3.1 m "
+                "from the point",
+    "square_side_max_m": TODAY + "2.3-2.4 m [7.8 m]: corners, and the U-turn that starts the first leg",
+    "square_mid_leg_rms_m": TODAY + "0.45-0.46 m [0.76 m]",
+    "square_mid_leg_max_m": TODAY + "1.2-1.3 m [4.2 m]",
+    "circle_error_max_m": TODAY + "8.2-8.5 m [10.2 m]: every lap the current carries the boat 5-10 m "
+                                  "downstream",
+    "fill_distance_max_m": TODAY + "2.68 m [2.68 m]: the pump stops only after the boat has left the "
+                                   "2.5 m circle",
+}
+"""Targets today's product misses on these cells, with the figures measured (the xfail reasons)."""
+STRADDLING_TODAY = {
+    "sample_distance_max_m":
+        TODAY + "2.62 m against 2.6 m [1.8-2.65 m]: a bottle stops filling where the boat leaves the 2.5 m "
+                "circle, so the figure straddles the limit and a strict mark would flip at random "
+                "(fill_distance_max_m is the strict check)",
+}
+"""Targets today's product meets or misses by a few centimetres depending on timing (non-strict xfail)."""
+
+
+@pytest.fixture(scope="module")
+def nav(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    cells = reduced_grid(REPORTING_SEEDS)
+    results = fly_all(cells, Path(tmp_path_factory.mktemp("bench-nav")), keep_truth=False)
+    return report(results, len(cells), 0, True, REPORTING_SEEDS, None)
+
+
+def test_every_cell_flies_the_whole_script_without_a_failsafe(nav: dict[str, Any]) -> None:
+    assert nav["errors"] == []
+    for cell in nav["cells"]:
+        fig = cell["figures"]
+        assert fig["square"]["legs_completed"] == 4, cell["name"]
+        assert fig["sampling"]["samples_taken"] == 4, cell["name"]
+        # the truth log and the ground station's clock agree: telemetry sits on the truth
+        assert fig["telemetry_vs_truth_rms_m"] < 0.3, cell["name"]
+
+
+def _target_cases() -> list[Any]:
+    names = ["loiter_max_m_current_above_creep", "loiter_max_m_current_below_creep", "square_side_max_m",
+             "square_mid_leg_rms_m", "square_mid_leg_max_m", "circle_error_max_m", "sample_distance_max_m",
+             "fill_distance_max_m", "samples_taken_min"]
+    cases: list[Any] = []
+    for n in names:
+        if n in MISSED_TODAY:
+            cases.append(pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=MISSED_TODAY[n])))
+        elif n in STRADDLING_TODAY:
+            cases.append(pytest.param(n, marks=pytest.mark.xfail(strict=False, reason=STRADDLING_TODAY[n])))
+        else:
+            cases.append(n)
+    return cases
+
+
+@pytest.mark.parametrize("figure", _target_cases())
+def test_issue_target_holds_worst_case_over_the_reduced_grid(nav: dict[str, Any], figure: str) -> None:
+    row = nav["targets"]["figures"][figure]
+    assert row["pass"], f"{figure}: worst {row['worst']} (target {row['target']}) in {row['cell']}"
+    assert not math.isnan(float(row["worst"]))
