@@ -131,3 +131,20 @@ def test_current_variability_is_parsed_and_checked() -> None:
         with pytest.raises(ConfigError) as info:
             parse_current_var(bad)
         assert "--current" in str(info.value) and "VAR" in str(info.value)
+
+
+@pytest.mark.parametrize("waves,wind,seed", [("0.3,3", "0,0", 1), ("0.5,2.5,45", "6,90", 2),
+                                             ("1.2,6", "0,0", 3)])
+def test_compiled_wave_force_is_bit_identical_to_the_numpy_reference(waves: str, wind: str,
+                                                                       seed: int) -> None:
+    import random
+
+    from sim_bridge.disturbances import Environment
+    from sim_bridge.hull import BoatParams
+
+    env = Environment(spec_from_strings(wind=wind, waves=waves), BoatParams(), seed)
+    rng = random.Random(seed)
+    for _ in range(300):
+        args = (rng.uniform(0, 600), rng.uniform(-300, 300), rng.uniform(-300, 300), rng.uniform(-7, 7),
+                rng.uniform(170, 240))
+        assert env.wave_force(*args) == env.wave_force_reference(*args)
