@@ -25,13 +25,13 @@ corrupted bytes, heading bias, stuck gyro.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 
 from companion.sensors.nmea import frame
+from sim_bridge.noise import normal_stream
 from sim_bridge.plant import PlantState
 
 EARTH_RADIUS_M = 6378137.0
@@ -113,15 +113,8 @@ class GpsInsModel:
         self._pos_err_n = self._pos_err_e = 0.0
         self._dr_pos: tuple[float, float] | None = None
         self._last_gyro = 0.0
-        self._noise: Iterator[float] = iter(())  # pre-drawn standard normals, refilled in blocks (speed)
+        self._n = normal_stream(self.rng)  # interleaves with corrupt()'s draws exactly as single draws did
         self.samples = 0
-
-    def _n(self) -> float:
-        try:
-            return next(self._noise)
-        except StopIteration:
-            self._noise = iter(self.rng.standard_normal(4096).tolist())
-            return next(self._noise)
 
     def due(self, step_index: int, step_s: float) -> bool:
         """Whether a sample is output at this physics step (rate divides 1/step_s)."""
