@@ -14,10 +14,12 @@ every ``IO_POLL_S`` of wall time so sockets and wall-clock timers are served.  S
 yield when nothing is ready runs nothing sooner or later in simulated time: an idle pass
 of the event loop costs more than a physics step.
 
-Profiling counters (wall seconds, ``time.perf_counter``): ``sim_time_s`` in the simulator
-(sensor bytes and physics), ``write_time_s`` in writing the sample, which over the
-in-memory pipe includes the companion's synchronous handling (parser, control loop
-stages, servo frame); the rest of a run is the event loop and the companion's other tasks.
+Profiling counters (wall seconds, ``time.perf_counter``; :meth:`Lockstep.timing_us` gives
+means per step): the simulator's ``sample_time_s`` (sensor sentences), ``receive_time_s``
+(decoding the servo frame) and ``physics_time_s`` (plant, payloads), and ``write_time_s``,
+the time in writing the sample less the simulator's receive within it, which over the
+in-memory pipe is the companion's synchronous handling (parser, control loop stages,
+servo frame); the rest of a run is the event loop and the companion's other tasks.
 """
 
 from __future__ import annotations
@@ -41,8 +43,7 @@ class Lockstep:
         self.wait_for_first_frame = wait_for_first_frame
         self.missed_acks = 0
         self.steps = 0
-        self.sim_time_s = 0.0
-        self.write_time_s = 0.0
+        self.sample_time_s = self.receive_time_s = self.physics_time_s = self.write_time_s = 0.0
         self._timed_steps = 0
         self._ack = asyncio.Event()
         link.set_receiver(self._on_bytes)
@@ -51,16 +52,24 @@ class Lockstep:
         self._last_yield_s = 0.0
 
     def reset_timing(self) -> None:
-        self.sim_time_s = self.write_time_s = 0.0
+        self.sample_time_s = self.receive_time_s = self.physics_time_s = self.write_time_s = 0.0
         self._timed_steps = self.steps
 
     def timing_us(self) -> dict[str, float]:
-        """Mean wall microseconds per step in the simulator and in writing the sample."""
-        n = max(1, self.steps - self._timed_steps)
-        return {"simulator": 1e6 * self.sim_time_s / n, "sample_delivery": 1e6 * self.write_time_s / n}
+        """Mean wall microseconds per step: ``simulator`` (``sensor_sample`` + ``servo_receive``
+        + ``physics``) and ``sample_delivery`` (the companion's synchronous handling of a sample)."""
+        per_step_us = 1e6 / max(1, self.steps - self._timed_steps)
+        parts = {"sensor_sample": self.sample_time_s, "servo_receive": self.receive_time_s,
+                 "physics": self.physics_time_s}
+        out = {name: t * per_step_us for name, t in parts.items()}
+        out["simulator"] = sum(parts.values()) * per_step_us
+        out["sample_delivery"] = self.write_time_s * per_step_us
+        return out
 
     def _on_bytes(self, data: bytes) -> None:
+        t0 = time.perf_counter()
         self.boat.receive(data)
+        self.receive_time_s += time.perf_counter() - t0
         if self.boat.pending is None:
             self._ack.set()
 
@@ -73,9 +82,11 @@ class Lockstep:
         t0 = time.perf_counter()
         data = boat.sample()
         t1 = time.perf_counter()
+        received_s = self.receive_time_s
         if data:
-            self.link.write(data)
+            self.link.write(data)  # in-memory: the companion answers (and we receive) inside this call
         t2 = time.perf_counter()
+        received_s = self.receive_time_s - received_s
         waiting = self.wait_for_first_frame or boat.frames_received > 0
         if self.lockstep and waiting and boat.pending is not None:
             try:
@@ -85,8 +96,9 @@ class Lockstep:
                 boat.pending = None
         t3 = time.perf_counter()
         boat.advance()
-        self.sim_time_s += (t1 - t0) + (time.perf_counter() - t3)
-        self.write_time_s += t2 - t1
+        self.physics_time_s += time.perf_counter() - t3
+        self.sample_time_s += t1 - t0
+        self.write_time_s += (t2 - t1) - received_s
         self.clock.advance_to(boat.t_s)
         self.steps += 1
         now = time.perf_counter()
