@@ -10,7 +10,8 @@ used up, exactly where the next single draw would have happened).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+import itertools
+from collections.abc import Callable
 
 import numpy as np
 
@@ -18,15 +19,9 @@ BLOCK = 4096
 
 
 def normal_stream(rng: np.random.Generator, block: int = BLOCK) -> Callable[[], float]:
-    """A function returning the next standard normal of ``rng`` (as a Python float)."""
-    values: Iterator[float] = iter(())
+    """A function returning the next standard normal of ``rng`` (as a Python float).
 
-    def draw() -> float:
-        nonlocal values
-        try:
-            return next(values)
-        except StopIteration:
-            values = iter(rng.standard_normal(block).tolist())
-            return next(values)
-
-    return draw
+    It is the ``__next__`` of an endless chain of blocks, each drawn when the previous one
+    is used up (no Python frame per draw: the hot path is C)."""
+    blocks = iter(lambda: rng.standard_normal(block).tolist(), None)  # never returns None: endless
+    return itertools.chain.from_iterable(blocks).__next__
