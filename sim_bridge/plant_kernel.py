@@ -151,6 +151,16 @@ def _nu_dot(uu: float, vv: float, rr: float, jet: float, cd: float, sd: float, t
 
 
 @njit(cache=True)
+def _eta_nu_dot(psi: float, u: float, v: float, r: float, jet: float, cd: float, sd: float, tx: float,
+                ty: float, tn: float, cn: float, ce: float, k: np.ndarray
+                ) -> tuple[float, float, float, float, float, float]:
+    """[eta_dot, nu_r_dot]: R(psi) nu_r + v_c and :func:`_nu_dot` (the RK4 right-hand side)."""
+    c, s = math.cos(psi), math.sin(psi)
+    du, dv, dr = _nu_dot(u, v, r, jet, cd, sd, tx, ty, tn, k)
+    return (c * u - s * v + cn, s * u + c * v + ce, r, du, dv, dr)
+
+
+@njit(cache=True)
 def rk4(x_n: float, y_e: float, psi: float, u: float, v: float, r: float, dt_s: float, jet: float,
         delta_rad: float, tx: float, ty: float, tn: float, cn: float, ce: float, k: np.ndarray
         ) -> tuple[float, float, float, float, float, float]:
@@ -160,32 +170,20 @@ def rk4(x_n: float, y_e: float, psi: float, u: float, v: float, r: float, dt_s: 
     cd, sd = math.cos(delta_rad), math.sin(delta_rad)
     h = dt_s
     hh = 0.5 * h
-    # k1
-    c, s = math.cos(psi), math.sin(psi)
-    a3, a4, a5 = _nu_dot(u, v, r, jet, cd, sd, tx, ty, tn, k)
-    a0, a1, a2 = c * u - s * v + cn, s * u + c * v + ce, r
-    # k2
-    p2, u2, v2, r2 = psi + hh * a2, u + hh * a3, v + hh * a4, r + hh * a5
-    c, s = math.cos(p2), math.sin(p2)
-    b3, b4, b5 = _nu_dot(u2, v2, r2, jet, cd, sd, tx, ty, tn, k)
-    b0, b1, b2 = c * u2 - s * v2 + cn, s * u2 + c * v2 + ce, r2
-    # k3
-    p3, u3, v3, r3 = psi + hh * b2, u + hh * b3, v + hh * b4, r + hh * b5
-    c, s = math.cos(p3), math.sin(p3)
-    c3, c4, c5 = _nu_dot(u3, v3, r3, jet, cd, sd, tx, ty, tn, k)
-    c0, c1, c2 = c * u3 - s * v3 + cn, s * u3 + c * v3 + ce, r3
-    # k4
-    p4, u4, v4, r4 = psi + h * c2, u + h * c3, v + h * c4, r + h * c5
-    c, s = math.cos(p4), math.sin(p4)
-    d3, d4, d5 = _nu_dot(u4, v4, r4, jet, cd, sd, tx, ty, tn, k)
-    d0, d1, d2 = c * u4 - s * v4 + cn, s * u4 + c * v4 + ce, r4
+    k1 = _eta_nu_dot(psi, u, v, r, jet, cd, sd, tx, ty, tn, cn, ce, k)
+    k2 = _eta_nu_dot(psi + hh * k1[2], u + hh * k1[3], v + hh * k1[4], r + hh * k1[5], jet, cd, sd, tx, ty,
+                     tn, cn, ce, k)
+    k3 = _eta_nu_dot(psi + hh * k2[2], u + hh * k2[3], v + hh * k2[4], r + hh * k2[5], jet, cd, sd, tx, ty,
+                     tn, cn, ce, k)
+    k4 = _eta_nu_dot(psi + h * k3[2], u + h * k3[3], v + h * k3[4], r + h * k3[5], jet, cd, sd, tx, ty,
+                     tn, cn, ce, k)
     h6 = h / 6.0
-    return (x_n + h6 * (a0 + 2.0 * b0 + 2.0 * c0 + d0),
-            y_e + h6 * (a1 + 2.0 * b1 + 2.0 * c1 + d1),
-            psi + h6 * (a2 + 2.0 * b2 + 2.0 * c2 + d2),
-            u + h6 * (a3 + 2.0 * b3 + 2.0 * c3 + d3),
-            v + h6 * (a4 + 2.0 * b4 + 2.0 * c4 + d4),
-            r + h6 * (a5 + 2.0 * b5 + 2.0 * c5 + d5))
+    return (x_n + h6 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]),
+            y_e + h6 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]),
+            psi + h6 * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2]),
+            u + h6 * (k1[3] + 2.0 * k2[3] + 2.0 * k3[3] + k4[3]),
+            v + h6 * (k1[4] + 2.0 * k2[4] + 2.0 * k3[4] + k4[4]),
+            r + h6 * (k1[5] + 2.0 * k2[5] + 2.0 * k3[5] + k4[5]))
 
 
 @njit(cache=True)
