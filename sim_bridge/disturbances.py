@@ -30,7 +30,7 @@ import numpy as np
 
 from companion.config import ConfigError
 from sim_bridge.hull import GRAVITY_MPS2, RHO_AIR_KGPM3, RHO_WATER_KGPM3, BoatParams
-from sim_bridge.noise import normal_stream
+from sim_bridge.noise import NormalStream
 from sim_bridge.plant_kernel import PAIRWISE_BLOCK
 from sim_bridge.plant_kernel import wave_force as wave_force_kernel
 
@@ -167,7 +167,7 @@ class Environment:
         self._slope_gain = self.wave_amp_m * self.wave_k_radpm * self.wave_attn
         self._work = np.empty_like(self._slope_gain)
         self._compiled = 0 < self.wave_amp_m.size <= PAIRWISE_BLOCK
-        self._gm_noise = normal_stream(self.rng)  # the only draws after the wave phases above
+        self._noise = NormalStream(self.rng)  # the only draws after the wave phases above
         self.calm = spec.wind_speed_mps == 0.0 and spec.current_speed_mps == 0.0 and spec.wave_hs_m == 0.0
         """No wind, current or waves: the plant skips the external forces."""
         self._current_ned = self._current_ned_now()
@@ -178,15 +178,15 @@ class Environment:
         if s.wind_speed_mps > 0.0:
             a = math.exp(-dt_s / s.gust_tau_s)
             sigma = s.gust_ratio * s.wind_speed_mps
-            self.gust_mps = a * self.gust_mps + sigma * math.sqrt(1.0 - a * a) * self._gm_noise()
+            self.gust_mps = a * self.gust_mps + sigma * math.sqrt(1.0 - a * a) * self._noise.draw()
             self.wind_speed_mps = max(0.0, s.wind_speed_mps + self.gust_mps)
         if s.current_var > 0.0 and s.current_speed_mps > 0.0:
             a = math.exp(-dt_s / CURRENT_TAU_S)
             w = math.sqrt(1.0 - a * a)
             self.current_speed_dev_mps = a * self.current_speed_dev_mps + (
-                s.current_var * s.current_speed_mps * w * self._gm_noise())
+                s.current_var * s.current_speed_mps * w * self._noise.draw())
             self.current_dir_dev_rad = (a * self.current_dir_dev_rad
-                                        + s.current_var * w * self._gm_noise())
+                                        + s.current_var * w * self._noise.draw())
             self.current_speed_mps = max(0.0, s.current_speed_mps + self.current_speed_dev_mps)
             self.current_toward_rad = s.current_toward_rad + self.current_dir_dev_rad
             self._current_ned = self._current_ned_now()

@@ -31,7 +31,7 @@ from typing import NamedTuple
 import numpy as np
 
 from companion.sensors.nmea import frame
-from sim_bridge.noise import normal_stream
+from sim_bridge.noise import NormalStream
 from sim_bridge.plant import PlantState
 
 EARTH_RADIUS_M = 6378137.0
@@ -113,7 +113,7 @@ class GpsInsModel:
         self._pos_err_n = self._pos_err_e = 0.0
         self._dr_pos: tuple[float, float] | None = None
         self._last_gyro = 0.0
-        self._n = normal_stream(self.rng)  # interleaves with corrupt()'s draws exactly as single draws did
+        self._noise = NormalStream(self.rng)  # interleaves with corrupt()'s draws as before
         self.samples = 0
 
     def due(self, step_index: int, step_s: float) -> bool:
@@ -123,7 +123,7 @@ class GpsInsModel:
 
     def measure(self, s: PlantState, dt_s: float) -> Measurement:
         f = self.faults
-        n = self._n
+        n = self._noise.draw
         # position: Gauss-Markov error, 2 cm CEP (~1.7 cm per axis) + 1 ppm of range
         a = math.exp(-dt_s / 10.0)
         sig = 0.017 + 1e-6 * math.hypot(s.north_m, s.east_m)
@@ -169,8 +169,8 @@ class GpsInsModel:
         """(GTIMU bytes, GPFPD bytes, GPS time string of the sample)."""
         week, sow = self.gps_time(m.t_s)
         stamp = b"%.3f" % sow
-        gyro_x = 0.05 * self._n()
-        gyro_y = 0.05 * self._n()
+        gyro_x = 0.05 * self._noise.draw()
+        gyro_y = 0.05 * self._noise.draw()
         imu = frame(GTIMU_FORMAT % (week, stamp, gyro_x, gyro_y, m.gyro_z_degps, m.acc_x_g, m.acc_y_g))
         fpd = frame(GPFPD_FORMAT % (week, stamp, m.heading_deg, m.pitch_deg, m.roll_deg, m.lat_deg, m.lon_deg,
                                     m.ve_mps, m.vn_mps, m.nsv, m.nsv, m.status))

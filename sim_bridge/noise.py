@@ -10,18 +10,43 @@ used up, exactly where the next single draw would have happened).
 
 from __future__ import annotations
 
+import copy
 import itertools
-from collections.abc import Callable
+import operator
+from collections.abc import Iterator
+from typing import Any
 
 import numpy as np
 
 BLOCK = 4096
 
 
-def normal_stream(rng: np.random.Generator, block: int = BLOCK) -> Callable[[], float]:
-    """A function returning the next standard normal of ``rng`` (as a Python float).
+class NormalStream:
+    """``draw()`` returns the next standard normal of ``rng`` (a Python float).
 
-    It is the ``__next__`` of an endless chain of blocks, each drawn when the previous one
-    is used up (no Python frame per draw: the hot path is C)."""
-    blocks = iter(lambda: rng.standard_normal(block).tolist(), None)  # never returns None: endless
-    return itertools.chain.from_iterable(blocks).__next__
+    ``draw`` is the ``__next__`` of an endless chain of blocks (no Python frame per value).
+    A deep copy (e.g. ``copy.deepcopy`` of a plant, to try something from the same state)
+    continues the same sequence independently: it gets the rest of the current block and a
+    copy of the generator.
+    """
+
+    __slots__ = ("_current", "_rng", "_size", "_values", "draw")
+
+    def __init__(self, rng: np.random.Generator, block: int = BLOCK, pending: list[float] | None = None
+                 ) -> None:
+        self._rng, self._size = rng, block
+        self._values: list[float] = pending or []
+        self._current: Iterator[float] = iter(self._values)
+        self.draw = itertools.chain.from_iterable(self._blocks()).__next__
+
+    def _blocks(self) -> Iterator[Iterator[float]]:
+        yield self._current
+        while True:
+            self._values = self._rng.standard_normal(self._size).tolist()
+            self._current = iter(self._values)
+            yield self._current
+
+    def __deepcopy__(self, memo: dict[int, Any]) -> NormalStream:
+        left = operator.length_hint(self._current)
+        pending = self._values[len(self._values) - left:] if left else []
+        return NormalStream(copy.deepcopy(self._rng, memo), self._size, pending)
