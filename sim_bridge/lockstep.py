@@ -31,7 +31,7 @@ from companion.clock import SimClock
 from companion.transport import ByteLink
 from sim_bridge.simboat import SimulatedBoat
 
-IO_POLL_S = 0.0005
+IO_POLL_S = 0.00025
 """Longest wall time between two passes of the event loop while stepping in lockstep."""
 
 
