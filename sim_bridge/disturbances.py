@@ -30,6 +30,9 @@ import numpy as np
 
 from companion.config import ConfigError
 from sim_bridge.hull import GRAVITY_MPS2, RHO_AIR_KGPM3, RHO_WATER_KGPM3, BoatParams
+from sim_bridge.noise import NormalStream
+from sim_bridge.plant_kernel import PAIRWISE_BLOCK
+from sim_bridge.plant_kernel import wave_force as wave_force_kernel
 
 
 @dataclass(frozen=True, slots=True)
@@ -160,12 +163,14 @@ class Environment:
         rho_g = RHO_WATER_KGPM3 * GRAVITY_MPS2
         self.wave_drift_n = float(np.sum(0.5 * rho_g * amp**2 * params.beam_m * refl))
         self.wave_attn = np.exp(-self.wave_k_radpm * params.draft_m)
-        self._gm_noise = self.rng.standard_normal
-
-    @property
-    def calm(self) -> bool:
-        s = self.spec
-        return s.wind_speed_mps == 0.0 and s.current_speed_mps == 0.0 and s.wave_hs_m == 0.0
+        # per component, amplitude x wave number x attenuation: the slope's gain (precomputed, same floats)
+        self._slope_gain = self.wave_amp_m * self.wave_k_radpm * self.wave_attn
+        self._work = np.empty_like(self._slope_gain)
+        self._compiled = 0 < self.wave_amp_m.size <= PAIRWISE_BLOCK
+        self._noise = NormalStream(self.rng)  # the only draws after the wave phases above
+        self.calm = spec.wind_speed_mps == 0.0 and spec.current_speed_mps == 0.0 and spec.wave_hs_m == 0.0
+        """No wind, current or waves: the plant skips the external forces."""
+        self._current_ned = self._current_ned_now()
 
     def advance(self, dt_s: float) -> None:
         """Advance the random processes (gusts, slowly varying current) by ``dt_s``."""
@@ -173,19 +178,24 @@ class Environment:
         if s.wind_speed_mps > 0.0:
             a = math.exp(-dt_s / s.gust_tau_s)
             sigma = s.gust_ratio * s.wind_speed_mps
-            self.gust_mps = a * self.gust_mps + sigma * math.sqrt(1.0 - a * a) * float(self._gm_noise())
+            self.gust_mps = a * self.gust_mps + sigma * math.sqrt(1.0 - a * a) * self._noise.draw()
             self.wind_speed_mps = max(0.0, s.wind_speed_mps + self.gust_mps)
         if s.current_var > 0.0 and s.current_speed_mps > 0.0:
             a = math.exp(-dt_s / CURRENT_TAU_S)
             w = math.sqrt(1.0 - a * a)
             self.current_speed_dev_mps = a * self.current_speed_dev_mps + (
-                s.current_var * s.current_speed_mps * w * float(self._gm_noise()))
+                s.current_var * s.current_speed_mps * w * self._noise.draw())
             self.current_dir_dev_rad = (a * self.current_dir_dev_rad
-                                        + s.current_var * w * float(self._gm_noise()))
+                                        + s.current_var * w * self._noise.draw())
             self.current_speed_mps = max(0.0, s.current_speed_mps + self.current_speed_dev_mps)
             self.current_toward_rad = s.current_toward_rad + self.current_dir_dev_rad
+            self._current_ned = self._current_ned_now()
 
     def current_ned_mps(self) -> tuple[float, float]:
+        """The current's north and east components (m/s), as of the last :meth:`advance`."""
+        return self._current_ned
+
+    def _current_ned_now(self) -> tuple[float, float]:
         c = self.current_speed_mps
         return c * math.cos(self.current_toward_rad), c * math.sin(self.current_toward_rad)
 
@@ -207,7 +217,18 @@ class Environment:
 
     def wave_force(self, t_s: float, x_n: float, y_e: float, psi: float, mass_kg: float
                    ) -> tuple[float, float, float]:
-        """First-order slope force plus mean drift, body frame, at bow and stern points."""
+        """First-order slope force plus mean drift, body frame, at bow and stern points
+        (compiled: :func:`sim_bridge.plant_kernel.wave_force`, bit-identical to
+        :meth:`wave_force_reference`)."""
+        if not self._compiled:
+            return self.wave_force_reference(t_s, x_n, y_e, psi, mass_kg)
+        return wave_force_kernel(t_s, x_n, y_e, psi, mass_kg, self.p.length_m / 4.0, self.wave_toward_rad,
+                                 self._slope_gain, self.wave_w_radps, self.wave_k_radpm, self.wave_phase,
+                                 self.wave_drift_n, GRAVITY_MPS2, self._work)
+
+    def wave_force_reference(self, t_s: float, x_n: float, y_e: float, psi: float, mass_kg: float
+                             ) -> tuple[float, float, float]:
+        """:meth:`wave_force` written with numpy: the readable reference of the compiled one."""
         if self.wave_amp_m.size == 0:
             return 0.0, 0.0, 0.0
         cb, sb = math.cos(self.wave_toward_rad), math.sin(self.wave_toward_rad)

@@ -22,14 +22,15 @@ This is deliberately *not* the chapter's qLPV structure (Eq. 3-4): resistance is
 polynomial in |u|, yaw has a u*v Munk term and cross-flow terms in |v + x r|, thrust
 depends on speed, and the hull changes with Fr; the qLPV model is an approximation of it.
 
-The same :func:`nu_dot` serves one boat (Python floats and :mod:`math`, fastest for
-scalars) and a batch of boats (numpy arrays): pass :data:`SCALAR` or :data:`VECTOR`.
+The same :func:`nu_dot` serves one boat (Python floats and :mod:`math`) and a batch of
+boats (numpy arrays): pass :data:`SCALAR` or :data:`VECTOR`.  One boat in the simulator
+runs the compiled copy of these equations, :mod:`sim_bridge.plant_kernel`, which is tied
+to them bit for bit by tests/sim/test_plant.py.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -149,99 +150,3 @@ def rk4_step(x_n: Any, y_e: Any, psi: Any, u: Any, v: Any, r: Any, dt_s: float,
     state = (x_n, y_e, psi, u, v, r)
     return tuple(s + h6 * (a + 2.0 * b + 2.0 * c + e)
                  for s, a, b, c, e in zip(state, k1, k2, k3, k4, strict=True))
-
-
-ScalarRk4 = Callable[[float, float, float, float, float, float, float, float, float,
-                      tuple[float, float, float], float, float], tuple[float, ...]]
-
-
-def make_scalar_rk4(d: Derived) -> ScalarRk4:
-    """:func:`rk4_step` for one boat with Python floats, specialised to the hull ``d``.
-
-    The same equations in the same floating-point operation order as :func:`nu_dot`,
-    :func:`surge_resistance_n` and :func:`rk4_step` with :data:`SCALAR` (results are
-    bit-identical, checked by tests/sim/test_plant.py), but with the hull constants bound
-    once and the Froude-number terms shared between resistance and draft: about twice as
-    fast, which is most of the simulator's share of a lockstep SITL step.
-    """
-    p = d.p
-    sqrt, tanh, log10, sin, cos = math.sqrt, math.tanh, math.log10, math.sin, math.cos
-    ds = d.displacement_scale
-    inv_sqrt_gl = d.inv_sqrt_gl
-    area0 = p.wetted_area_m2 * ds**2
-    loss_a, loss_d = p.planing_area_loss, p.planing_draft_loss
-    length, half_rho, one_ff = p.length_m, 0.5 * RHO_WATER_KGPM3, 1.0 + p.form_factor
-    hump_froude, hrr2, weight, x_u = p.hump_froude, p.hump_resistance_ratio * 2.0, d.weight_n, p.x_u_nspm
-    draft0 = p.draft_m * ds
-    rho_a = RHO_WATER_KGPM3 * p.jet_area_m2
-    njx = -p.jet_x_m
-    yv, yvs, yr = p.y_v_nspm, p.y_v_per_speed_nspm, p.y_r_nsprad
-    nv, nvs, nr, nrs = p.n_v_nsm, p.n_v_per_speed_ns, p.n_r_nmsprad, p.n_r_per_speed_nmsprad
-    nhr, cdx = -0.5 * RHO_WATER_KGPM3, p.crossflow_cd
-    strips = tuple(zip(d.strips_x_m, d.strips_w_m, strict=True))
-    m, xg = d.mass_kg, d.xg_m
-    neg_m, neg_m_xg = -m, -m * xg
-    yvd, yrd, xud = p.y_vdot_kg, p.y_rdot_kgm, p.x_udot_kg
-    m0, m1, m2, m3, m4, m5, m6, m7, m8 = d.minv
-    kin = KINEMATIC_VISCOSITY_M2PS
-
-    def step(x_n: float, y_e: float, psi: float, u: float, v: float, r: float, dt_s: float,
-             jet: float, delta_rad: float, tau: tuple[float, float, float], cn: float, ce: float
-             ) -> tuple[float, ...]:
-        cd, sd = cos(delta_rad), sin(delta_rad)
-        tx, ty, tn = tau
-
-        def f(ps: float, uu: float, vv: float, rr: float) -> tuple[float, ...]:
-            c, s_ = cos(ps), sin(ps)
-            speed = sqrt(uu * uu + vv * vv)
-            froude = speed * inv_sqrt_gl
-            s = 0.5 * (1.0 + tanh((froude - 1.0) * 4.0))
-            draft_m = draft0 * (1.0 - loss_d * s)
-            # surge_resistance_n
-            area_m2 = area0 * (1.0 - loss_a * s)
-            reynolds = speed * length / kin + 1.0e5
-            cf = 0.075 / (log10(reynolds) - 2.0) ** 2
-            friction = half_rho * area_m2 * one_ff * cf * uu * abs(uu)
-            x = froude / hump_froude
-            x2 = x * x
-            residual = weight * (hrr2 * x2 / (1.0 + x2 * x2)) * uu / (speed + 1e-6)
-            resistance = friction + residual - x_u * uu
-
-            thrust = rho_a * jet * (jet - uu)
-            fx = thrust * cd - resistance
-            fy = -thrust * sd
-            fn = njx * thrust * sd
-            fy += (yv + yvs * speed) * vv + yr * rr
-            fn += (nv + nvs * speed) * vv + (nr + nrs * speed) * rr
-            k = nhr * draft_m * cdx
-            for x_i, w_i in strips:
-                vc = vv + x_i * rr
-                ff = k * w_i * abs(vc) * vc
-                fy += ff
-                fn += x_i * ff
-            b = yvd * vv + yrd * rr
-            a = xud * uu
-            fx += m * (vv + xg * rr) * rr - b * rr
-            fy += neg_m * uu * rr + a * rr
-            fn += neg_m_xg * uu * rr + b * uu - a * vv
-            fx += tx
-            fy += ty
-            fn += tn
-            return (c * uu - s_ * vv + cn, s_ * uu + c * vv + ce, rr,
-                    m0 * fx + m1 * fy + m2 * fn, m3 * fx + m4 * fy + m5 * fn, m6 * fx + m7 * fy + m8 * fn)
-
-        h = dt_s
-        hh = 0.5 * h
-        k1 = f(psi, u, v, r)
-        k2 = f(psi + hh * k1[2], u + hh * k1[3], v + hh * k1[4], r + hh * k1[5])
-        k3 = f(psi + hh * k2[2], u + hh * k2[3], v + hh * k2[4], r + hh * k2[5])
-        k4 = f(psi + h * k3[2], u + h * k3[3], v + h * k3[4], r + h * k3[5])
-        h6 = h / 6.0
-        return (x_n + h6 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]),
-                y_e + h6 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]),
-                psi + h6 * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2]),
-                u + h6 * (k1[3] + 2.0 * k2[3] + 2.0 * k3[3] + k4[3]),
-                v + h6 * (k1[4] + 2.0 * k2[4] + 2.0 * k3[4] + k4[4]),
-                r + h6 * (k1[5] + 2.0 * k2[5] + 2.0 * k3[5] + k4[5]))
-
-    return step

@@ -25,18 +25,25 @@ corrupted bytes, heading bias, stuck gyro.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
-from companion.sensors.nmea import build
+from companion.sensors.nmea import frame
+from sim_bridge.noise import NormalStream
 from sim_bridge.plant import PlantState
 
 EARTH_RADIUS_M = 6378137.0
 GPS_EPOCH_UNIX_S = 315964800.0
 GPS_LEAP_S = 18.0
 SUPPORTED_RATES_HZ = (1, 5, 10, 100)
+
+GTIMU_FORMAT = b"GTIMU,%d,%s,%.4f,%.4f,%.4f,%.4f,%.4f,1.0000,35.0"
+"""Week, time of week, gyro X/Y/Z deg/s, acceleration X/Y g (Z 1 g, temperature 35 C)."""
+GPFPD_FORMAT = b"GPFPD,%d,%s,%.3f,%.3f,%.3f,%.8f,%.8f,0.00,%.3f,%.3f,0.000,2.000,%d,%d,%02X"
+"""Week, time of week, heading, pitch, roll, latitude, longitude, (altitude 0), Ve, Vn,
+(Vu 0, baseline 2 m), satellites on each antenna, status."""
 
 
 @dataclass(slots=True)
@@ -50,9 +57,8 @@ class SensorFaults:
     gyro_stuck: bool = False
 
 
-@dataclass(frozen=True, slots=True)
-class Measurement:
-    """One GPS-INS sample as the device reports it (noisy)."""
+class Measurement(NamedTuple):
+    """One GPS-INS sample as the device reports it (noisy; immutable)."""
 
     t_s: float
     lat_deg: float
@@ -104,23 +110,16 @@ class GpsInsModel:
         self.start_unix_s = start_unix_s
         self.faults = SensorFaults()
         self.gyro_bias_degps = float(self.rng.normal(0.0, 0.1))
-        self._pos_err = [0.0, 0.0]
+        self._pos_err_n = self._pos_err_e = 0.0
         self._dr_pos: tuple[float, float] | None = None
         self._last_gyro = 0.0
-        self._noise: Iterator[float] = iter(())  # pre-drawn standard normals, refilled in blocks (speed)
+        self._noise = NormalStream(self.rng)  # interleaves with corrupt()'s draws as before
         self.samples = 0
 
     def lat_lon(self, north_m: float, east_m: float) -> tuple[float, float]:
         """Geodetic degrees of a position relative to home, as this device converts it (no noise)."""
         return (self.home_lat_deg + north_m / self._m_per_deg_lat,
                 self.home_lon_deg + east_m / self._m_per_deg_lon)
-
-    def _n(self) -> float:
-        try:
-            return next(self._noise)
-        except StopIteration:
-            self._noise = iter(self.rng.standard_normal(4096).tolist())
-            return next(self._noise)
 
     def due(self, step_index: int, step_s: float) -> bool:
         """Whether a sample is output at this physics step (rate divides 1/step_s)."""
@@ -129,30 +128,30 @@ class GpsInsModel:
 
     def measure(self, s: PlantState, dt_s: float) -> Measurement:
         f = self.faults
-        n = self._n
+        n = self._noise.draw
         # position: Gauss-Markov error, 2 cm CEP (~1.7 cm per axis) + 1 ppm of range
         a = math.exp(-dt_s / 10.0)
         sig = 0.017 + 1e-6 * math.hypot(s.north_m, s.east_m)
         w = sig * math.sqrt(1.0 - a * a)
-        self._pos_err[0] = a * self._pos_err[0] + w * n()
-        self._pos_err[1] = a * self._pos_err[1] + w * n()
-        vn_true = s.u_mps * math.cos(s.psi_rad) - s.v_mps * math.sin(s.psi_rad)
-        ve_true = s.u_mps * math.sin(s.psi_rad) + s.v_mps * math.cos(s.psi_rad)
-        vn = vn_true + 0.1 * n()
-        ve = ve_true + 0.1 * n()
+        err_n = self._pos_err_n = a * self._pos_err_n + w * n()
+        err_e = self._pos_err_e = a * self._pos_err_e + w * n()
+        psi, u, v = s.psi_rad, s.u_mps, s.v_mps
+        c, sn = math.cos(psi), math.sin(psi)
+        vn = u * c - v * sn + 0.1 * n()
+        ve = u * sn + v * c + 0.1 * n()
         if f.gps_outage:
             # INS dead reckoning from the last fix: integrates noisy velocity, drifts
             if self._dr_pos is None:
-                self._dr_pos = (s.north_m + self._pos_err[0], s.east_m + self._pos_err[1])
+                self._dr_pos = (s.north_m + err_n, s.east_m + err_e)
             north = self._dr_pos[0] + (vn + 0.05) * dt_s
             east = self._dr_pos[1] + (ve + 0.05) * dt_s
             self._dr_pos = (north, east)
             status, nsv = 0x00, 0
         else:
             self._dr_pos = None
-            north, east = s.north_m + self._pos_err[0], s.east_m + self._pos_err[1]
+            north, east = s.north_m + err_n, s.east_m + err_e
             status, nsv = 0x0B, 14
-        heading = (math.degrees(s.psi_rad) + 0.2 * n() + f.heading_bias_deg) % 360.0
+        heading = (math.degrees(psi) + 0.2 * n() + f.heading_bias_deg) % 360.0
         if not f.gyro_stuck:
             gz = -math.degrees(s.r_radps) + self.gyro_bias_degps + 0.05 * n()
             self._last_gyro = max(-100.0, min(100.0, gz))
@@ -160,12 +159,10 @@ class GpsInsModel:
         acc_x = (s.v_dot_mps2 + s.u_r_mps * s.r_radps) / g + 0.002 * n()
         acc_y = (s.u_dot_mps2 - s.v_r_mps * s.r_radps) / g + 0.002 * n()
         self.samples += 1
-        return Measurement(
-            t_s=s.t_s, lat_deg=self.home_lat_deg + north / self._m_per_deg_lat,
-            lon_deg=self.home_lon_deg + east / self._m_per_deg_lon, heading_deg=heading,
-            pitch_deg=0.5 * n(), roll_deg=0.5 * n(), ve_mps=ve, vn_mps=vn,
-            gyro_z_degps=self._last_gyro, acc_x_g=acc_x, acc_y_g=acc_y, nsv=nsv, status=status,
-            north_m=north, east_m=east)
+        pitch = 0.5 * n()
+        return Measurement(s.t_s, self.home_lat_deg + north / self._m_per_deg_lat,
+                           self.home_lon_deg + east / self._m_per_deg_lon, heading, pitch, 0.5 * n(), ve, vn,
+                           self._last_gyro, acc_x, acc_y, nsv, status, north, east)
 
     def gps_time(self, t_s: float) -> tuple[int, float]:
         """GPS week and seconds of week of simulation time ``t_s``."""
@@ -176,13 +173,13 @@ class GpsInsModel:
     def sentences(self, m: Measurement) -> tuple[bytes, bytes, str]:
         """(GTIMU bytes, GPFPD bytes, GPS time string of the sample)."""
         week, sow = self.gps_time(m.t_s)
-        stamp = f"{sow:.3f}"
-        imu = build(f"GTIMU,{week},{stamp},{n4(0.05 * self._n())},{n4(0.05 * self._n())},"
-                    f"{n4(m.gyro_z_degps)},{n4(m.acc_x_g)},{n4(m.acc_y_g)},1.0000,35.0")
-        fpd = build(f"GPFPD,{week},{stamp},{m.heading_deg:.3f},{m.pitch_deg:.3f},{m.roll_deg:.3f},"
-                    f"{m.lat_deg:.8f},{m.lon_deg:.8f},0.00,{m.ve_mps:.3f},{m.vn_mps:.3f},0.000,"
-                    f"2.000,{m.nsv},{m.nsv},{m.status:02X}")
-        return imu, fpd, stamp
+        stamp = b"%.3f" % sow
+        gyro_x = 0.05 * self._noise.draw()
+        gyro_y = 0.05 * self._noise.draw()
+        imu = frame(GTIMU_FORMAT % (week, stamp, gyro_x, gyro_y, m.gyro_z_degps, m.acc_x_g, m.acc_y_g))
+        fpd = frame(GPFPD_FORMAT % (week, stamp, m.heading_deg, m.pitch_deg, m.roll_deg, m.lat_deg, m.lon_deg,
+                                    m.ve_mps, m.vn_mps, m.nsv, m.nsv, m.status))
+        return imu, fpd, stamp.decode("ascii")
 
     def corrupt(self, data: bytes) -> bytes:
         """Flip one byte with probability ``faults.corrupt_fraction`` (checksum then fails)."""
@@ -192,10 +189,6 @@ class GpsInsModel:
         return data[:i] + bytes([data[i] ^ 0x01]) + data[i + 1:]
 
 
-def n4(x: float) -> str:
-    return f"{x:.4f}"
-
-
 def engine_sentence(rpm: float, running: bool) -> bytes:
     """``$PUSVE,RPM,RUNNING*HH``: the engine module's tachometer."""
-    return build(f"PUSVE,{rpm:.0f},{1 if running else 0}")
+    return frame(b"PUSVE,%.0f,%d" % (rpm, 1 if running else 0))

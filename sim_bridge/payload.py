@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from companion.sensors.nmea import build
+from companion.sensors.nmea import frame
 
 TRIGGER_THRESHOLD_US = 1700
 TRIGGER_HOLD_S = 0.2
@@ -124,9 +124,10 @@ class RcTransmitter:
 
 def payload_sentence(launcher: Launcher, sampler: Sampler) -> bytes:
     b = sampler.bottles_ml
-    return build(f"PUSVP,{launcher.pressure_mpa:.2f},{len(launcher.events)},{b[0]:.1f},{b[1]:.1f},"
-                 f"{b[2]:.1f},{b[3]:.1f},{1 if sampler.pump_on else 0},{sampler.valve}")
+    return frame(b"PUSVP,%.2f,%d,%.1f,%.1f,%.1f,%.1f,%d,%d" % (
+        launcher.pressure_mpa, len(launcher.events), b[0], b[1], b[2], b[3], 1 if sampler.pump_on else 0,
+        sampler.valve))
 
 
 def rc_sentence(source_companion: bool, channels_us: tuple[int, ...]) -> bytes:
-    return build(f"PUSVRC,{1 if source_companion else 0}," + ",".join(str(c) for c in channels_us))
+    return frame(b"PUSVRC,%d,%d,%d,%d,%d,%d,%d,%d,%d" % (1 if source_companion else 0, *channels_us))

@@ -20,13 +20,21 @@ from companion.sensors.nmea import LineFramer
 from sim_bridge.disturbances import DisturbanceSpec
 from sim_bridge.gpsins import GpsInsModel, SensorFaults, engine_sentence
 from sim_bridge.hull import BoatParams
-from sim_bridge.payload import Launcher, RcTransmitter, Sampler, payload_sentence, rc_sentence
+from sim_bridge.payload import (
+    TRIGGER_THRESHOLD_US,
+    Launcher,
+    RcTransmitter,
+    Sampler,
+    payload_sentence,
+    rc_sentence,
+)
 from sim_bridge.plant import BoatPlant
 
 PHYSICS_STEP_S = 0.01
 CH_NOZZLE, CH_THROTTLE, CH_VALVE, CH_IGNITION, CH_SELECTOR, CH_LAUNCHER, CH_PUMP = 0, 2, 3, 4, 5, 6, 7
 SAFE_PULSES = (1500, 1500, 1100, 1000, 1100, 1100, 1100, 1100)
 """What the servos see before any frame arrives: nozzle centred, engine off."""
+NO_DRIFT = (0.0, 0.0)
 
 
 class SimulatedBoat:
@@ -37,6 +45,8 @@ class SimulatedBoat:
         self.step_s = step_s
         self.plant = BoatPlant(params, disturbances, seed, psi0_rad=psi0_rad)
         self.gpsins = GpsInsModel(seed, home_lat_deg, home_lon_deg, gnss_rate_hz, start_unix_s)
+        self._sample_every = max(1, round(1.0 / (gnss_rate_hz * step_s)))
+        """Physics steps per GPS-INS sample (as :meth:`GpsInsModel.due`)."""
         self.launcher = Launcher()
         self.sampler = Sampler()
         self.rc = RcTransmitter()
@@ -63,22 +73,21 @@ class SimulatedBoat:
         """Sensor bytes at the current time ('' when no sample is due or the device is silent)."""
         self.pending = None
         i = self.step_index
-        if not self.gpsins.due(i, self.step_s) or self.faults.silent:
+        every = self._sample_every
+        if i % every or self.faults.silent:
             return b""
         s = self.plant.state
-        m = self.gpsins.measure(s, self.step_s * max(1, round(1.0 / (self.gpsins.rate_hz * self.step_s))))
-        imu, fpd, stamp = self.gpsins.sentences(m)
-        parts = [imu]
-        if i % 10 == 0:
-            parts.append(engine_sentence(s.engine_rpm, s.engine_running))
-            parts.append(payload_sentence(self.launcher, self.sampler))
-            channels = self.rc.channels_us(self.plant.params.nozzle_max_rad)
-            parts.append(rc_sentence(self.source_companion, channels))
-        corrupted = self.gpsins.corrupt(fpd)
-        parts.append(corrupted)
-        if corrupted == fpd:
+        gpsins = self.gpsins
+        imu, fpd, stamp = gpsins.sentences(gpsins.measure(s, self.step_s * every))
+        corrupted = gpsins.corrupt(fpd)
+        if corrupted is fpd:
             self.pending = stamp
-        return b"".join(parts)
+        if i % 10:
+            return imu + corrupted
+        channels = self.rc.channels_us(self.plant.params.nozzle_max_rad)
+        return b"".join((imu, engine_sentence(s.engine_rpm, s.engine_running),
+                         payload_sentence(self.launcher, self.sampler),
+                         rc_sentence(self.source_companion, channels), corrupted))
 
     def receive(self, data: bytes) -> None:
         for body in self.framer.feed(data):
@@ -104,10 +113,13 @@ class SimulatedBoat:
         t = self.t_s
         self.plant.step(dt, noz, thr, ign)
         s = self.plant.state
-        cn, ce = self.plant.env.current_ned_mps()
-        wind = self.plant.env.wind_speed_mps
-        wto = self.plant.env.spec.wind_from_rad + math.pi
-        drift = (cn + 0.03 * wind * math.cos(wto), ce + 0.03 * wind * math.sin(wto))
+        drift = NO_DRIFT
+        if self.launcher.buoys or p[CH_LAUNCHER] > TRIGGER_THRESHOLD_US:  # only lifebuoys drift
+            env = self.plant.env
+            cn, ce = env.current_ned_mps()
+            wind = env.wind_speed_mps
+            wto = env.spec.wind_from_rad + math.pi
+            drift = (cn + 0.03 * wind * math.cos(wto), ce + 0.03 * wind * math.sin(wto))
         self.launcher.step(dt, t + dt, p[CH_LAUNCHER], s.north_m, s.east_m, s.psi_rad, drift)
         self.sampler.step(dt, p[CH_PUMP], p[CH_VALVE])
         self.step_index += 1

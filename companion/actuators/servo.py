@@ -17,18 +17,23 @@ from typing import NamedTuple
 from companion.actuators.overrides import owned_channels
 from companion.messages import ActuatorCommand, ControlSource
 from companion.params import ParamStore
-from companion.sensors.nmea import build
+from companion.sensors.nmea import build, frame
 
 N_CHANNELS = 8
 
 
-@dataclass(frozen=True, slots=True)
-class ServoFrame:
+_FRAME_FORMAT = b"PUSVS,%s" + b",%d" * N_CHANNELS
+
+
+class ServoFrame(NamedTuple):
     ack: str
     pulse_us: tuple[int, ...]
 
 
 def encode_frame(ack: str, pulse_us: tuple[int, ...]) -> bytes:
+    """``$PUSVS,ACK,P1..P8*HH`` (one 100 Hz frame: formatted as bytes in one step)."""
+    if len(pulse_us) == N_CHANNELS:
+        return frame(_FRAME_FORMAT % (ack.encode("ascii"), *pulse_us))
     return build("PUSVS," + ack + "," + ",".join(map(str, pulse_us)))
 
 

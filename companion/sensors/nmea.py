@@ -9,33 +9,30 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from numba import njit
+
 MAX_SENTENCE_BYTES = 200
 """Longest accepted sentence; NMEA's limit is 82 but the XW-GI $GPFPD is longer."""
 
 
-_ZEROS = bytes(8)
-
-
+@njit(cache=True)
 def checksum(body: bytes) -> int:
-    """XOR of the bytes between ``$`` and ``*``.
-
-    XOR is associative, so the bytes are XORed eight at a time as 64-bit words (zero
-    padded) and the word folded to one byte: about 8x fewer Python-level operations than
-    a byte loop, which matters at 100 Hz x several sentences in lockstep SITL.
-    """
+    """XOR of the bytes between ``$`` and ``*`` (compiled: a few hundred nanoseconds for a
+    ``$GPFPD``, several sentences per 100 Hz sample in lockstep SITL)."""
     x = 0
-    for word in memoryview(body + _ZEROS[:-len(body) % 8]).cast("Q"):
-        x ^= word
-    x ^= x >> 32
-    x ^= x >> 16
-    x ^= x >> 8
-    return x & 0xFF
+    for byte in body:
+        x ^= byte
+    return x
 
 
 def build(body: str) -> bytes:
     """``$BODY*HH\\r\\n`` for a body such as ``GPFPD,2168,...``."""
-    raw = body.encode("ascii")
-    return b"$" + raw + b"*%02X\r\n" % checksum(raw)
+    return frame(body.encode("ascii"))
+
+
+def frame(body: bytes) -> bytes:
+    """:func:`build` for a body that is already ASCII bytes (e.g. from ``bytes % values``)."""
+    return b"$%s*%02X\r\n" % (body, checksum(body))
 
 
 @dataclass(slots=True)

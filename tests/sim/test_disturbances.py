@@ -131,3 +131,58 @@ def test_current_variability_is_parsed_and_checked() -> None:
         with pytest.raises(ConfigError) as info:
             parse_current_var(bad)
         assert "--current" in str(info.value) and "VAR" in str(info.value)
+
+
+@pytest.mark.parametrize("waves,wind,seed", [("0.3,3", "0,0", 1), ("0.5,2.5,45", "6,90", 2),
+                                             ("1.2,6", "0,0", 3)])
+def test_compiled_wave_force_is_bit_identical_to_the_numpy_reference(waves: str, wind: str,
+                                                                       seed: int) -> None:
+    import random
+
+    from sim_bridge.disturbances import Environment
+    from sim_bridge.hull import BoatParams
+
+    env = Environment(spec_from_strings(wind=wind, waves=waves), BoatParams(), seed)
+    rng = random.Random(seed)
+    for _ in range(300):
+        args = (rng.uniform(0, 600), rng.uniform(-300, 300), rng.uniform(-300, 300), rng.uniform(-7, 7),
+                rng.uniform(170, 240))
+        assert env.wave_force(*args) == env.wave_force_reference(*args)
+
+
+def test_a_deep_copy_of_a_plant_continues_the_same_weather_and_leaves_the_original_alone() -> None:
+    """``copy.deepcopy`` of a plant (the control bench tries an oracle from the same state)
+    must continue the same gusts and wandering current as the original would, and running
+    the copy must not change what the original does next (the noise is drawn in blocks)."""
+    import copy
+
+    def states(plant: BoatPlant, steps: int) -> list[tuple[float, ...]]:
+        out = []
+        for i in range(steps):
+            plant.step(0.01, 0.3 if (i // 250) % 2 else -0.3, 0.6, True)
+            s = plant.state
+            out.append((s.north_m, s.east_m, s.psi_rad, s.u_mps, s.v_mps, s.r_radps))
+        return out
+
+    spec = spec_from_strings(wind="8,40", current="0.6,120,0.4", waves="0.2,2.5")
+    reference, plant = BoatPlant(disturbances=spec, seed=9), BoatPlant(disturbances=spec, seed=9)
+    assert states(reference, 3000) == states(plant, 3000)
+    twin = copy.deepcopy(plant)
+    ahead = states(reference, 9000)  # more than two 4096-value noise blocks past the copy
+    assert states(twin, 9000) == ahead
+    assert states(plant, 9000) == ahead
+
+
+def test_a_deep_copy_of_the_gps_ins_continues_the_same_noise() -> None:
+    import copy
+
+    from sim_bridge.gpsins import GpsInsModel
+    from sim_bridge.plant import PlantState
+
+    state = PlantState(north_m=3.0, east_m=-2.0, psi_rad=0.4, u_mps=2.0, v_mps=0.1, r_radps=0.05)
+    sensor = GpsInsModel(seed=4)
+    for _ in range(1000):
+        sensor.measure(state, 0.01)
+    twin = copy.deepcopy(sensor)
+    original = [sensor.sentences(sensor.measure(state, 0.01)) for _ in range(1000)]
+    assert [twin.sentences(twin.measure(state, 0.01)) for _ in range(1000)] == original

@@ -159,3 +159,39 @@ async def test_slower_gps_ins_rates_run_the_loop_at_that_rate_through_the_parser
         assert h.plant.state.u_mps > 3.0 and h.plant.state.r_radps > 0.05  # throttle and starboard nozzle
         nav = h.ctx.bus.topic("nav", NavState).latest()
         assert nav is not None and nav.u_mps == pytest.approx(h.plant.state.u_mps, abs=0.5)
+
+
+async def test_tasks_run_in_the_step_that_wakes_them_although_idle_event_loop_passes_are_skipped() -> None:
+    """The lockstep skips handing the event loop over when nothing is ready to run (speed);
+    a task sleeping on the simulation clock, or awaiting a topic a control-loop stage
+    publishes, must still run before the next sample, exactly as if every step yielded."""
+    import asyncio
+
+    async with SitlHarness() as h:
+        drive(h, 0.5)
+        woke: list[tuple[float, float, int]] = []
+        seen: list[tuple[float, int]] = []
+
+        async def sleeper() -> None:
+            for _ in range(5):
+                start_s = h.clock.now_s()
+                await h.clock.sleep(0.137)
+                woke.append((start_s + 0.137, h.clock.now_s(), h.loop.stats.samples))
+
+        async def watcher() -> None:
+            topic = h.ctx.bus.topic("actuator_cmd", ActuatorCommand)
+            for _ in range(50):
+                cmd = await topic.next()
+                seen.append((cmd.t_s, h.loop.stats.samples))
+
+        tasks = [asyncio.create_task(sleeper()), asyncio.create_task(watcher())]
+        await h.run_for(1.0)
+        for task in tasks:
+            task.cancel()
+        # each wake-up happens in the first physics step at or after its deadline, before the next sample
+        assert len(woke) == 5
+        for deadline_s, t_s, samples in woke:
+            assert deadline_s - 1e-9 <= t_s < deadline_s + 0.01 - 1e-9
+            assert samples == round(t_s / 0.01)
+        # every command is seen before the following sample is parsed
+        assert len(seen) == 50 and all(samples == round(t_s / 0.01) + 1 for t_s, samples in seen)
