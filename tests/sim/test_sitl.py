@@ -176,13 +176,13 @@ async def test_tasks_run_in_the_step_that_wakes_them_although_idle_event_loop_pa
             for _ in range(5):
                 start_s = h.clock.now_s()
                 await h.clock.sleep(0.137)
-                woke.append((start_s + 0.137, h.clock.now_s(), h.loop.stats.samples))
+                woke.append((start_s + 0.137, h.clock.now_s(), h.stats.samples))
 
         async def watcher() -> None:
             topic = h.ctx.bus.topic("actuator_cmd", ActuatorCommand)
             for _ in range(50):
                 cmd = await topic.next()
-                seen.append((cmd.t_s, h.loop.stats.samples))
+                seen.append((cmd.t_s, h.stats.samples))
 
         tasks = [asyncio.create_task(sleeper()), asyncio.create_task(watcher())]
         await h.run_for(1.0)
