@@ -211,13 +211,15 @@ class Vehicle:
     # -- mission progress (used by AUTO) --------------------------------------------------
     @property
     def first_mission_seq(self) -> int:
-        """Under ``ardurover`` item 0 is home and the mission starts at 1."""
-        return 1 if self.profile == "ardurover" else 0
+        """1 when item 0 is ArduPilot's home placeholder (``ardurover`` and an upload in that
+        convention, :mod:`companion.mission.convention`), else 0."""
+        home_item = self.missions.has_home_item(MissionType.MISSION)
+        return 1 if self.profile == "ardurover" and home_item else 0
 
     def mission_items(self) -> list[MissionItem]:
         """The stored mission (MAV_MISSION_TYPE_MISSION) with wire sequence numbers.
 
-        Under ``ardurover`` item 0 is the home position and is never executed.
+        Item 0 is never executed when it is the home placeholder (:attr:`first_mission_seq`).
         """
         return self.missions.items(MissionType.MISSION)
 
