@@ -19,6 +19,7 @@ from typing import Any
 
 from companion.app import BaseService, Context
 from companion.link.endpoint import Dispatcher, Link
+from companion.link.gcs_presence import Silence
 from companion.link.tlog import TlogWriter
 from companion.link.transports import SerialPort, TcpServer, UdpTarget
 
@@ -72,9 +73,19 @@ class LinkManager(BaseService):
             link.send(msg)
 
     def gcs_heartbeat_age_s(self) -> float | None:
-        """Seconds since the last GCS heartbeat on any link (``None``: never heard)."""
-        stamps = [link.last_gcs_heartbeat_s for link in self.links if link.last_gcs_heartbeat_s is not None]
-        return None if not stamps else self.ctx.clock.now_s() - max(stamps)
+        """Seconds (vehicle clock) since the last GCS heartbeat on any link (``None``: never heard)."""
+        silences = self.gcs_silences()
+        return min(s.vehicle_s for s in silences) if silences else None
+
+    def gcs_silences(self) -> list[Silence]:
+        """The silence of the ground station on every link that has heard one."""
+        return [s for s in (link.gcs.silence() for link in self.links) if s is not None]
+
+    def gcs_lost(self, timeout_s: float) -> bool:
+        """Every ground station heard so far is silent for ``timeout_s`` (:mod:`.gcs_presence`'s
+        rule: vehicle time, and wall time for stations pacing heartbeats by the wall clock)."""
+        silences = self.gcs_silences()
+        return bool(silences) and all(s.exceeds(timeout_s) for s in silences)
 
     # -- life cycle -----------------------------------------------------------------------
     async def start(self) -> None:

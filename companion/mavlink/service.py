@@ -28,7 +28,7 @@ from companion.mavlink.ftp import FtpService
 from companion.mavlink.manual_control import register_manual_control
 from companion.mavlink.mission_service import MissionService
 from companion.mavlink.param_service import ParamService
-from companion.mavlink.vehicle_commands import MODE_GUIDED, register_vehicle_commands
+from companion.mavlink.vehicle_commands import MODE_AUTO, MODE_GUIDED, MODE_RTL, register_vehicle_commands
 from companion.messages import NavState, StatusText
 from companion.mission.store import MissionStore
 from companion.vehicle import SEVERITY_CRITICAL, SEVERITY_INFO, SEVERITY_WARNING, GuidedTarget, Vehicle
@@ -40,6 +40,8 @@ TICK_S = 1.0 / streams.MAX_RATE_HZ
 STREAM_IDLE_S = 0.1
 """Longest the telemetry scheduler sleeps: a new link or a rate request waits at most this."""
 STATUSTEXT_MAX = 50
+MODE_HOLD = 4
+"""Rover HOLD, FS_ACTION 2."""
 
 
 class MavlinkService(BaseService):
@@ -185,44 +187,48 @@ class MavlinkService(BaseService):
             self.check_failsafe()
 
     def check_failsafe(self) -> None:
-        """FS_GCS_* and USV_FS_ENG_STOP against the age of the last GCS heartbeat.
+        """FS_GCS_* and USV_FS_ENG_STOP against the silence of the ground stations.
 
-        Ages are in ``ctx.clock`` time (simulated seconds in SITL).  Armed and silent for
-        FS_GCS_TIMEOUT: STATUSTEXT and FS_ACTION's mode (RTL falls back to HOLD); silent for
-        USV_FS_ENG_STOP: disarm, which turns the ignition off (the boat coasts).  A returning
-        ground station only clears the failsafe flag (STATUSTEXT "GCS failsafe cleared"): the
-        mode stays as the failsafe left it and a stopped engine stays stopped until the
-        operator re-arms and picks a mode.
+        A ground station is lost by :mod:`companion.link.gcs_presence`'s rule: silent for the
+        timeout on the vehicle clock (simulated seconds in SITL) and, when it paces its 1 Hz
+        heartbeats by the wall clock while the vehicle clock runs faster (``--speedup``), for
+        three of its heartbeat periods of wall time too.  Armed and lost for FS_GCS_TIMEOUT:
+        STATUSTEXT and FS_ACTION's mode (RTL falls back to HOLD) -- unless the boat is already
+        in RTL or HOLD, which ArduPilot Rover also leaves alone, so RTL stays RTL until home.
+        Lost for USV_FS_ENG_STOP: disarm, which turns the ignition off (the boat coasts),
+        whatever the mode.  A returning ground station only clears the failsafe flag
+        (STATUSTEXT "GCS failsafe cleared"): the mode stays as the failsafe left it and a
+        stopped engine stays stopped until the operator re-arms and picks a mode.
         """
-        params, vehicle = self.ctx.params, self.vehicle
-        age_s = self.links.gcs_heartbeat_age_s()
+        params, vehicle, links = self.ctx.params, self.vehicle, self.links
+        age_s = links.gcs_heartbeat_age_s()
         if age_s is None:
             return  # no ground station heard yet: nothing to lose
         enable = params.get_int("FS_GCS_ENABLE")
-        timeout_s = params.get("FS_GCS_TIMEOUT")
-        lost = age_s > timeout_s
-        if lost and enable and vehicle.armed and not self._failsafe_gcs:
+        lost = links.gcs_lost(params.get("FS_GCS_TIMEOUT"))
+        mode = vehicle.modes.current.number
+        if lost and enable and vehicle.armed and not self._failsafe_gcs and mode not in (MODE_RTL, MODE_HOLD):
             self._failsafe_gcs = True
             vehicle.failsafe_reason = "gcs"
-            continue_auto = enable == 2 and vehicle.modes.current.number == 10
+            continue_auto = enable == 2 and mode == MODE_AUTO
             vehicle.status(f"GCS failsafe: no heartbeat for {age_s:.0f} s", SEVERITY_CRITICAL)
             action = params.get_int("FS_ACTION")
             if not continue_auto and action in (1, 2):
-                target = 11 if action == 1 else 4
+                target = MODE_RTL if action == 1 else MODE_HOLD
                 reason = vehicle.set_mode(target)
-                if reason and target == 11:
-                    vehicle.set_mode(4)
+                if reason and target == MODE_RTL:
+                    vehicle.set_mode(MODE_HOLD)
         elif not lost and self._failsafe_gcs:
             self._failsafe_gcs = False
             vehicle.failsafe_reason = None
             vehicle.status("GCS failsafe cleared", SEVERITY_INFO)
         stop_s = params.get("USV_FS_ENG_STOP")
-        if stop_s > 0 and age_s > stop_s and vehicle.armed and not self._failsafe_engine:
+        engine_lost = stop_s > 0 and links.gcs_lost(stop_s)
+        if engine_lost and vehicle.armed and not self._failsafe_engine:
             self._failsafe_engine = True
             vehicle.disarm(reason=f"engine stop, no ground station for {stop_s:.0f} s")
-        elif age_s <= stop_s:
+        elif not engine_lost:
             self._failsafe_engine = False
-
 
 def build_mavlink_services(ctx: Context) -> list[Service]:
     """The link service and the MAVLink vehicle service, in start-up order."""
