@@ -160,6 +160,8 @@ class Link:
         if msg.get_type() == "HEARTBEAT" and getattr(msg, "type", None) == MAV_TYPE_GCS:
             self.gcs.heard(heartbeat=True)
             self.peer = (msg.get_srcSystem(), msg.get_srcComponent())
+        elif self.peer is not None and self.peer == (msg.get_srcSystem(), msg.get_srcComponent()):
+            self.gcs.heard(heartbeat=False)  # a command or request from the ground station: it is there
         target_system = getattr(msg, "target_system", 0)
         if target_system not in (0, self.system_id):
             return

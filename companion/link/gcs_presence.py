@@ -16,8 +16,8 @@ The rule (:meth:`GcsPresence.silent_for`): a ground station is silent for ``time
 On a boat both clocks are one, so the rule is exactly ``timeout_s``; a test ground station that
 paces its heartbeats by simulated time is judged by simulated time alone.  The periods are the
 median of the last :data:`PERIOD_SAMPLES` intervals between HEARTBEATs (after a single heartbeat:
-1 Hz of wall time, pace unknown); other traffic that counts as presence (MANUAL_CONTROL) refreshes
-the silence but not the periods.
+1 Hz of wall time, pace unknown).  Anything else the ground station sends (a command, a mission
+upload, MANUAL_CONTROL) shows it is there too: it ends the silence but does not change the periods.
 """
 
 from __future__ import annotations
