@@ -15,9 +15,10 @@ placeholder for home at item 0 of an ArduPilot mission; MAVSDK's Mission plugin 
 A complete upload is classified by :func:`companion.mission.convention.classify`: a
 placeholder is stored as such (never executed, and served back filled with the current home,
 as ArduPilot does), anything else is the first mission item (served back exactly as
-uploaded).  An upload whose item 0 could be either is refused with MAV_MISSION_INVALID and a
-STATUSTEXT saying how to make it unambiguous; the accepting STATUSTEXT names the convention.
-The ``generic`` profile has no placeholder.
+uploaded); an empty mission downloads as home alone, as from ArduPilot.  An upload whose
+item 0 could be either is refused with MAV_MISSION_INVALID and a STATUSTEXT saying how to make
+it unambiguous; the accepting STATUSTEXT names the convention.  The ``generic`` profile has no
+placeholder.
 
 Also: MISSION_CLEAR_ALL, MISSION_SET_CURRENT (answered with MISSION_CURRENT) and
 MISSION_ITEM_REACHED broadcast when AUTO reports progress.
@@ -214,12 +215,18 @@ class MissionService:
 
     # -- download -----------------------------------------------------------------------
     def download_plan(self, mission_type: int) -> list[MissionItem]:
-        """What a download returns: the plan as uploaded; a home placeholder filled with home."""
+        """What a download returns: the plan as uploaded, a home placeholder filled with the current
+        home; no mission under ``ardurover`` is home alone, as ArduPilot serves it (MAVProxy's
+        ``wp list`` waits for at least one item)."""
         plan = self.store.items(mission_type)
-        if plan and self.vehicle.first_mission_seq == 1 and mission_type == MissionType.MISSION:
-            home = self.vehicle.home
-            if home is not None:
-                plan[0] = MissionItem.home(home.lat_deg, home.lon_deg, home.alt_m)
+        home = self.vehicle.home
+        if not (self.home_first and mission_type == MissionType.MISSION and home is not None):
+            return plan
+        home_item = MissionItem.home(home.lat_deg, home.lon_deg, home.alt_m)
+        if not plan:
+            return [home_item]
+        if self.vehicle.first_mission_seq == 1:
+            plan[0] = home_item
         return plan
 
     def _on_request_list(self, link: Link, msg: Any) -> None:

@@ -141,7 +141,9 @@ async def test_each_client_downloads_what_it_uploaded_and_progress_counts_real_i
         assert [_fields(m) for m in await download(gcs)] == kept  # the old plan is still there
 
         assert (await upload(gcs, [])).type == mav.MAV_MISSION_ACCEPTED
-        assert await download(gcs) == []  # nothing, not a lone home item MAVSDK cannot parse
+        got = await download(gcs)  # ArduPilot's empty mission: home alone (MAVProxy waits for item 0)
+        assert [(m.seq, m.frame, m.x, m.y) for m in got] == [(0, mi.FRAME_GLOBAL, _e7(HOME[0]), _e7(HOME[1]))]
+        assert vehicle.mission_total == 0
 
 
 def test_the_convention_survives_a_restart_and_old_files_are_classified(tmp_path: Path) -> None:
