@@ -104,30 +104,34 @@ def longest_edge_angle(polygon: list[NE]) -> float:
     return math.atan2(b[1] - a[1], b[0] - a[0])
 
 
-def lawnmower(polygon: list[NE], spacing_m: float, angle_rad: float | None = None) -> list[NE]:
+def lawnmower(polygon: list[NE], spacing_m: float, angle_rad: float | None = None,
+              start: NE = (0.0, 0.0)) -> list[NE]:
     """Boustrophedon lines at most ``spacing_m`` apart across the polygon, first line half a spacing in.
 
     Lines run along ``angle_rad`` (default: the longest edge), each from its first to its last
-    crossing of the polygon's boundary, alternating direction.
+    crossing of the polygon's boundary, alternating direction, starting at the corner nearest
+    ``start`` (home).
     """
     angle = longest_edge_angle(polygon) if angle_rad is None else angle_rad
-    local = _rotate(np.asarray(polygon, dtype=float), angle)  # column 0 along the lines
+    local = _rotate(np.asarray(polygon, dtype=float), angle)  # lines at constant column 1
     lo, hi = local[:, 1].min(), local[:, 1].max()
-    n = max(1, math.ceil((hi - lo) / spacing_m))
-    waypoints: list[NE] = []
+    n = max(1, math.ceil((hi - lo) / spacing_m - 1e-9))
+    lines: list[list[tuple[float, float]]] = []
     for k in range(n):
         y = lo + (k + 0.5) * (hi - lo) / n
         xs = []
         for (x1, y1), (x2, y2) in zip(local, np.roll(local, -1, axis=0), strict=True):
             if (y1 <= y < y2) or (y2 <= y < y1):
                 xs.append(x1 + (y - y1) * (x2 - x1) / (y2 - y1))
-        if len(xs) < 2:
-            continue
-        ends = [(min(xs), y), (max(xs), y)]
-        if len(waypoints) // 2 % 2:
-            ends.reverse()
-        waypoints += [(float(p[0]), float(p[1])) for p in _rotate(np.asarray(ends), -angle)]
-    return waypoints
+        if len(xs) >= 2:
+            lines.append([(min(xs), y), (max(xs), y)])
+    candidates = []
+    for order in (lines, lines[::-1]):
+        for flip in (False, True):
+            ends = [line[::-1] if (i % 2 == 1) != flip else line for i, line in enumerate(order)]
+            points = [(float(p[0]), float(p[1])) for p in _rotate(np.asarray(ends).reshape(-1, 2), -angle)]
+            candidates.append(points)
+    return min(candidates, key=lambda pts: math.dist(pts[0], start)) if lines else []
 
 
 def expanding_square(polygon: list[NE], spacing_m: float) -> list[NE]:
@@ -144,7 +148,7 @@ def expanding_square(polygon: list[NE], spacing_m: float) -> list[NE]:
             n, e = waypoints[-1]
             waypoints.append((n + dn * leg * spacing_m, e + de * leg * spacing_m))
             heading += 1
-        if leg * spacing_m / 2 >= reach:
+        if (leg - 1) * spacing_m / 2 >= reach:  # the last ring is complete on all four sides
             return waypoints
         leg += 1
 
