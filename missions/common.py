@@ -53,6 +53,8 @@ class MissionError(Exception):
     def __init__(self, message: str, code: int = EXIT_FAILED) -> None:
         super().__init__(message)
         self.code = code
+        self.details: dict[str, Any] = {}
+        """Figures known when the step failed (printed with the failure)."""
 
 
 def add_common_arguments(parser: argparse.ArgumentParser, *, timeout_s: float) -> None:
@@ -389,7 +391,13 @@ def finish(name: str, summary: dict[str, Any], failures: list[str], as_json: boo
     return EXIT_FAILED if failures else EXIT_OK
 
 
-def fail(name: str, exc: MissionError) -> int:
+def fail(name: str, exc: MissionError, as_json: bool = False) -> int:
+    """Report a step that failed (with :attr:`MissionError.details`); the exit status."""
+    if as_json:
+        report = {**exc.details, "ok": False, "failures": [str(exc)], "exit_status": exc.code}
+        print(json.dumps(_finite(report), allow_nan=False, default=str), flush=True)
+    elif exc.details:
+        print(f"{name}: {json.dumps(_finite(exc.details), default=str)}", flush=True)
     print(f"{name}: FAILED: {exc}", file=sys.stderr, flush=True)
     return exc.code
 

@@ -41,6 +41,8 @@ NAME = "rescue"
 FRAME_MISSION, FRAME_GLOBAL_RELATIVE_ALT_INT = 2, 6
 CMD_NAV_WAYPOINT, CMD_NAV_LOITER_TIME, CMD_NAV_RETURN_TO_LAUNCH, CMD_DO_CHANGE_SPEED = 16, 19, 20, 178
 LAUNCH_SEQ = 3
+STOPPED_MPS = 1.8
+"""The vehicle's "stopped" for a jet boat on a bearing (AUTO's launch item)."""
 ROPE_RANGE_M = 150.0
 """The launcher's farthest throw (chapter section 4.1)."""
 
@@ -152,6 +154,37 @@ def launch_report(boat: Boat, before: dict[str, Any], casualty_ne: tuple[float, 
     }
 
 
+def aiming_report(boat: Boat, p: dict[str, Any], casualty_ne: tuple[float, float],
+                  args: argparse.Namespace) -> dict[str, Any]:
+    """How close the boat came to firing conditions after it set off for the launch point: share
+    of the time within ``--launch-tol`` of the point, the best bow error while stopped there (at
+    most the vehicle's 1.8 m/s "stopped" for a jet), and the longest stretch stopped there with the
+    bow within ``--bearing-tol`` (the vehicle fires after USV_LNCH_HOLD_S, 3 s) -- figures for a
+    launch that never came."""
+    frame = boat.frame()
+    since_s = boat.rec.current_since.get(LAUNCH_SEQ, math.inf)
+    near, stopped_errors, aimed_since, longest_aimed_s = 0, [], None, 0.0
+    points = [pt for pt in boat.rec.track if pt.t_s >= since_s]
+    for pt in points:
+        ne = frame.to_ne(pt.lat_deg, pt.lon_deg)
+        error_deg = abs((pt.heading_deg - p["bearing_deg"] + 180.0) % 360.0 - 180.0)
+        is_near = math.dist(ne, p["launch_ne"]) <= args.launch_tol
+        stopped = is_near and pt.speed_mps <= STOPPED_MPS
+        near += is_near
+        if stopped:
+            stopped_errors.append(error_deg)
+        if stopped and error_deg <= args.bearing_tol:
+            aimed_since = pt.t_s if aimed_since is None else aimed_since
+            longest_aimed_s = max(longest_aimed_s, pt.t_s - aimed_since)
+        else:
+            aimed_since = None
+    return {"seconds": round(points[-1].t_s - since_s, 1) if points else 0.0,
+            "share_near_launch_point": round(near / len(points), 3) if points else 0.0,
+            "share_stopped_near": round(len(stopped_errors) / len(points), 3) if points else 0.0,
+            "best_bow_error_stopped_deg": round(min(stopped_errors), 1) if stopped_errors else None,
+            "longest_aimed_and_stopped_s": round(longest_aimed_s, 2)}
+
+
 def arrival_s(boat: Boat, point_ne: tuple[float, float], after_s: float, radius_m: float) -> float | None:
     """Vehicle time the track first came within ``radius_m`` of ``point_ne`` after ``after_s``."""
     frame = boat.frame()
@@ -166,12 +199,12 @@ async def run(argv: list[str] | None = None) -> int:
     try:
         boat = await Boat.connect(args.url, args.connect_timeout, verbose=args.verbose)
     except MissionError as exc:
-        return fail(NAME, exc)
+        return fail(NAME, exc, args.json)
     try:
         return await rescue(boat, args)
     except MissionError as exc:
         await boat.abort()
-        return fail(NAME, exc)
+        return fail(NAME, exc, args.json)
     finally:
         boat.close()
 
@@ -188,8 +221,12 @@ async def rescue(boat: Boat, args: argparse.Namespace) -> int:
     print(f"{NAME}: casualty {casualty_ne[0]:.0f} m N {casualty_ne[1]:.0f} m E of home; launch from "
           f"{args.standoff:.0f} m on bearing {p['bearing_deg']:.0f} deg", flush=True)
 
-    start_s = await boat.run_raw_mission(p["items"], args.timeout, lambda seq: p["names"][seq],
-                                         {LAUNCH_SEQ: args.aim_timeout})
+    try:
+        start_s = await boat.run_raw_mission(p["items"], args.timeout, lambda seq: p["names"][seq],
+                                             {LAUNCH_SEQ: args.aim_timeout})
+    except MissionError as exc:
+        exc.details = {"launched": False, "aiming": aiming_report(boat, p, casualty_ne, args)}
+        raise
     station_s = arrival_s(boat, p["launch_ne"], boat.rec.reached.get(1, start_s), args.launch_tol)
     left_station_s = boat.rec.reached.get(4, boat.now_s())
     report = launch_report(boat, before, casualty_ne, p, start_s, station_s)

@@ -108,22 +108,24 @@ def lawnmower(polygon: list[NE], spacing_m: float, angle_rad: float | None = Non
               start: NE = (0.0, 0.0)) -> list[NE]:
     """Boustrophedon lines at most ``spacing_m`` apart across the polygon, first line half a spacing in.
 
-    Lines run along ``angle_rad`` (default: the longest edge), each from its first to its last
-    crossing of the polygon's boundary, alternating direction, starting at the corner nearest
-    ``start`` (home).
+    Lines run along ``angle_rad`` (default: the longest edge), alternating direction, starting
+    at the corner nearest ``start`` (home).  Each line spans the polygon across its whole swath
+    (half a spacing either side), so sloping edges leave no uncovered corners.
     """
     angle = longest_edge_angle(polygon) if angle_rad is None else angle_rad
     local = _rotate(np.asarray(polygon, dtype=float), angle)  # lines at constant column 1
     lo, hi = local[:, 1].min(), local[:, 1].max()
     n = max(1, math.ceil((hi - lo) / spacing_m - 1e-9))
+    half = 0.5 * (hi - lo) / n
     lines: list[list[tuple[float, float]]] = []
     for k in range(n):
-        y = lo + (k + 0.5) * (hi - lo) / n
-        xs = []
+        y = lo + (2 * k + 1) * half
+        xs = [x for x, v in local if y - half <= v <= y + half]  # vertices inside the swath
         for (x1, y1), (x2, y2) in zip(local, np.roll(local, -1, axis=0), strict=True):
-            if (y1 <= y < y2) or (y2 <= y < y1):
-                xs.append(x1 + (y - y1) * (x2 - x1) / (y2 - y1))
-        if len(xs) >= 2:
+            for edge_y in (y - half, y + half):  # where the edges cross the swath's sides
+                if y1 != y2 and min(y1, y2) <= edge_y <= max(y1, y2):
+                    xs.append(x1 + (edge_y - y1) * (x2 - x1) / (y2 - y1))
+        if xs:
             lines.append([(min(xs), y), (max(xs), y)])
     candidates = []
     for order in (lines, lines[::-1]):
@@ -242,12 +244,12 @@ async def run(argv: list[str] | None = None) -> int:
         area = load_area(args.area) if args.area else None
         boat = await Boat.connect(args.url, args.connect_timeout, verbose=args.verbose)
     except MissionError as exc:
-        return fail(NAME, exc)
+        return fail(NAME, exc, args.json)
     try:
         return await search(boat, area, args)
     except MissionError as exc:
         await boat.abort()
-        return fail(NAME, exc)
+        return fail(NAME, exc, args.json)
     finally:
         boat.close()
 

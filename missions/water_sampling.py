@@ -186,12 +186,12 @@ async def run(argv: list[str] | None = None) -> int:
     try:
         boat = await Boat.connect(args.url, args.connect_timeout, verbose=args.verbose)
     except MissionError as exc:
-        return fail(NAME, exc)
+        return fail(NAME, exc, args.json)
     try:
         return await sample(boat, args)
     except MissionError as exc:
         await boat.abort()
-        return fail(NAME, exc)
+        return fail(NAME, exc, args.json)
     finally:
         boat.close()
 
