@@ -28,7 +28,7 @@ import json
 import math
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -36,6 +36,8 @@ from companion.guidance.geo import LocalFrame
 
 DEFAULT_URL = "udpin://0.0.0.0:14540"
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_NO_VEHICLE = 0, 1, 2, 3
+READY_TIMEOUT_S = 120.0
+"""Vehicle seconds to wait for a position, home and passing pre-arm checks."""
 TELEMETRY_SILENCE_S = 10.0
 """Wall seconds without a position report after which the link counts as lost."""
 MISSION_STATE_ACTIVE, MISSION_STATE_COMPLETE = 3, 5
@@ -373,17 +375,47 @@ class Boat:
         return distance_m
 
     async def abort(self) -> None:
-        """After a failure mid-mission: send the boat home (best effort)."""
+        """After a failure mid-mission: send the boat home (best effort; only when armed)."""
+        if not self.rec.armed:
+            return
         with contextlib.suppress(Exception):
             await asyncio.wait_for(self.action.return_to_launch(), 5.0)
             print("  boat sent home (RTL)", file=sys.stderr, flush=True)
 
 
-def finish(name: str, summary: dict[str, Any], failures: list[str], as_json: bool) -> int:
-    """Print the summary (and what failed); the exit status."""
+async def fly(name: str, args: argparse.Namespace,
+              mission: Callable[[Boat, argparse.Namespace], Awaitable[int]]) -> int:
+    """Connect to ``args.url``, wait until the vehicle is ready, run ``mission``; its exit status.
+
+    A :class:`MissionError` is printed (``--json``: as JSON) and, once armed, the boat sent home.
+    """
+    try:
+        boat = await Boat.connect(args.url, args.connect_timeout, verbose=args.verbose)
+    except MissionError as exc:
+        return fail(name, exc, args.json)
+    try:
+        print(f"{name}: connected to {args.url}", flush=True)
+        await boat.wait_ready(READY_TIMEOUT_S)
+        return await mission(boat, args)
+    except MissionError as exc:
+        await boat.abort()
+        return fail(name, exc, args.json)
+    finally:
+        boat.close()
+
+
+def finish(name: str, summary: dict[str, Any], failures: list[str], as_json: bool,
+           show: Callable[[dict[str, Any]], None]) -> int:
+    """Add the common criterion (disarmed within WP_RADIUS of home), print the summary (``show``, or
+    JSON) and what failed; the exit status."""
+    home_m, radius_m = summary["home_distance_at_disarm_m"], summary["wp_radius_m"]
+    if home_m > radius_m:
+        failures.append(f"disarmed {home_m:.1f} m from home (WP_RADIUS {radius_m} m)")
     summary = {**summary, "ok": not failures, "failures": failures}
     if as_json:
         print(json.dumps(_finite(summary), allow_nan=False, default=str))
+    else:
+        show(summary)
     for failure in failures:
         print(f"{name}: FAILED: {failure}", file=sys.stderr, flush=True)
     if not failures and not as_json:

@@ -28,14 +28,7 @@ from typing import Any
 from mavsdk.plugins.mission_raw import MissionItem
 
 from mavlink_dialect import UsvCmd
-from missions.common import (
-    Boat,
-    MissionError,
-    add_common_arguments,
-    fail,
-    finish,
-    parse_pair,
-)
+from missions.common import Boat, MissionError, add_common_arguments, finish, fly, parse_pair
 
 NAME = "rescue"
 FRAME_MISSION, FRAME_GLOBAL_RELATIVE_ALT_INT = 2, 6
@@ -195,23 +188,10 @@ def arrival_s(boat: Boat, point_ne: tuple[float, float], after_s: float, radius_
 
 
 async def run(argv: list[str] | None = None) -> int:
-    args = parse_args(argv)
-    try:
-        boat = await Boat.connect(args.url, args.connect_timeout, verbose=args.verbose)
-    except MissionError as exc:
-        return fail(NAME, exc, args.json)
-    try:
-        return await rescue(boat, args)
-    except MissionError as exc:
-        await boat.abort()
-        return fail(NAME, exc, args.json)
-    finally:
-        boat.close()
+    return await fly(NAME, parse_args(argv), rescue)
 
 
 async def rescue(boat: Boat, args: argparse.Namespace) -> int:
-    print(f"{NAME}: connected to {args.url}", flush=True)
-    await boat.wait_ready(120.0)
     before = await check_launcher(boat)
     wp_radius_m = await boat.param_float("WP_RADIUS")
     await boat.arm()
@@ -250,11 +230,7 @@ async def rescue(boat: Boat, args: argparse.Namespace) -> int:
                             f"(tolerance {args.bearing_tol} deg)")
         if report["range_to_casualty_m"] > ROPE_RANGE_M:
             failures.append(f"casualty {report['range_to_casualty_m']} m away: beyond the rope's range")
-    if home_m > wp_radius_m:
-        failures.append(f"disarmed {home_m:.1f} m from home (WP_RADIUS {wp_radius_m} m)")
-    if not args.json:
-        print_summary(summary)
-    return finish(NAME, summary, failures, args.json)
+    return finish(NAME, summary, failures, args.json, print_summary)
 
 
 def print_summary(s: dict[str, Any]) -> None:

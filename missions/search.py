@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from missions.common import Boat, MissionError, add_common_arguments, fail, finish
+from missions.common import Boat, MissionError, add_common_arguments, fail, finish, fly
 
 NAME = "search"
 NE = tuple[float, float]
@@ -242,21 +242,12 @@ async def run(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     try:
         area = load_area(args.area) if args.area else None
-        boat = await Boat.connect(args.url, args.connect_timeout, verbose=args.verbose)
     except MissionError as exc:
         return fail(NAME, exc, args.json)
-    try:
-        return await search(boat, area, args)
-    except MissionError as exc:
-        await boat.abort()
-        return fail(NAME, exc, args.json)
-    finally:
-        boat.close()
+    return await fly(NAME, args, lambda boat, args: search(boat, area, args))
 
 
 async def search(boat: Boat, area: list[tuple[float, float]] | None, args: argparse.Namespace) -> int:
-    print(f"{NAME}: connected to {args.url}", flush=True)
-    await boat.wait_ready(120.0)
     wp_radius_m = await boat.param_float("WP_RADIUS")
     await boat.arm()
     frame = boat.frame()
@@ -284,13 +275,13 @@ async def search(boat: Boat, area: list[tuple[float, float]] | None, args: argpa
     if covered < args.min_coverage:
         failures.append(f"covered {100 * covered:.1f} % of the area "
                         f"(required {100 * args.min_coverage:.0f} %)")
-    if home_m > wp_radius_m:
-        failures.append(f"disarmed {home_m:.1f} m from home (WP_RADIUS {wp_radius_m} m)")
-    if not args.json:
-        print(f"{NAME} summary: covered {100 * covered:.1f} % of {summary['area_m2']} m2 in "
-              f"{summary['search_time_s']} s ({summary['sailed_length_m']} m sailed); disarmed "
-              f"{summary['home_distance_at_disarm_m']} m from home", flush=True)
-    return finish(NAME, summary, failures, args.json)
+    return finish(NAME, summary, failures, args.json, print_summary)
+
+
+def print_summary(s: dict[str, Any]) -> None:
+    print(f"{NAME} summary: covered {100 * s['coverage']:.1f} % of {s['area_m2']} m2 in "
+          f"{s['search_time_s']} s ({s['sailed_length_m']} m sailed); disarmed "
+          f"{s['home_distance_at_disarm_m']} m from home", flush=True)
 
 
 if __name__ == "__main__":

@@ -33,7 +33,7 @@ from typing import Any
 from mavsdk.plugins.mission_raw import MissionItem
 
 from mavlink_dialect import UsvCmd
-from missions.common import Boat, MissionError, add_common_arguments, fail, finish, parse_pair
+from missions.common import Boat, MissionError, add_common_arguments, finish, fly, parse_pair
 
 NAME = "water_sampling"
 FRAME_MISSION, FRAME_GLOBAL_RELATIVE_ALT_INT = 2, 6
@@ -182,23 +182,10 @@ def save_figure(path: Path, boat: Boat, points_ne: list[tuple[float, float]], ra
 
 
 async def run(argv: list[str] | None = None) -> int:
-    args = parse_args(argv)
-    try:
-        boat = await Boat.connect(args.url, args.connect_timeout, verbose=args.verbose)
-    except MissionError as exc:
-        return fail(NAME, exc, args.json)
-    try:
-        return await sample(boat, args)
-    except MissionError as exc:
-        await boat.abort()
-        return fail(NAME, exc, args.json)
-    finally:
-        boat.close()
+    return await fly(NAME, parse_args(argv), sample)
 
 
 async def sample(boat: Boat, args: argparse.Namespace) -> int:
-    print(f"{NAME}: connected to {args.url}", flush=True)
-    await boat.wait_ready(120.0)
     await check_bottles(boat, args.reset_bottles)
     wp_radius_m = await boat.param_float("WP_RADIUS")
     radius_m = args.radius or await boat.param_float("USV_TURN_RAD")
@@ -232,11 +219,7 @@ async def sample(boat: Boat, args: argparse.Namespace) -> int:
         if p["max_track_error_m"] > args.max_track_error:
             failures.append(f"P{p['point']}: tracking error {p['max_track_error_m']} m "
                             f"(limit {args.max_track_error} m)")
-    if home_m > wp_radius_m:
-        failures.append(f"disarmed {home_m:.1f} m from home (WP_RADIUS {wp_radius_m} m)")
-    if not args.json:
-        print_summary(summary)
-    return finish(NAME, summary, failures, args.json)
+    return finish(NAME, summary, failures, args.json, print_summary)
 
 
 def print_summary(s: dict[str, Any]) -> None:
