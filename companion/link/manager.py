@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from companion.app import BaseService, Context
+from companion.clock import WallClock
 from companion.link.endpoint import Dispatcher, Link
 from companion.link.gcs_presence import Silence
 from companion.link.tlog import TlogWriter
@@ -43,6 +44,8 @@ class LinkManager(BaseService):
         self.tcp: TcpServer | None = None
         self.serial: list[SerialPort] = []
         self.link_listeners: list[Callable[[Link], None]] = []
+        self.wall = WallClock()
+        """The wall clock next to ``ctx.clock``: ground stations pace their heartbeats by it."""
         self._tlog_dir: Path | None = None
         self._session = time.strftime("%Y%m%d-%H%M%S", time.gmtime(ctx.clock.unix_time_s()))
         ctx.extras["links"] = self
@@ -54,7 +57,7 @@ class LinkManager(BaseService):
             safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
             tlog = TlogWriter(self._tlog_dir / f"{self._session}-{safe}.tlog")
         link = Link(name, write, clock=self.ctx.clock, dispatcher=self.dispatcher, system_id=self.system_id,
-                    component_id=self.component_id, tlog=tlog)
+                    component_id=self.component_id, tlog=tlog, wall=self.wall)
         self.links.append(link)
         for listener in tuple(self.link_listeners):
             try:
