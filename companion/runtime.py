@@ -35,7 +35,7 @@ from companion.param_table import all_param_defs
 from companion.params import ParamStore
 from companion.payloads.registry import PayloadDef, PayloadRegistry, built_in_payloads
 from companion.pipeline import LoopStats, Pipeline, ServoOutput
-from companion.vehicle import Vehicle, first_mission_seq
+from companion.vehicle import Vehicle, home_placeholder_profile
 
 log = logging.getLogger(__name__)
 
@@ -106,7 +106,7 @@ def build_companion(ctx: Context, hardware: HardwareLinks | None = None,
     estimator = EstimatorStage(model, load_companion_ukf_settings(config))
     control = ControlSystem(params, clock, bus, model)
     profile = str(config["vehicle.profile"])
-    mission = MissionCursor(MissionStore(config.state_dir() / "missions"), first_mission_seq(profile))
+    mission = MissionCursor(MissionStore(config.state_dir() / "missions"), home_placeholder_profile(profile))
     vehicle = Vehicle(ctx, mission, ModeManager(MODE_CLASSES), control, actions)
     # the 100 Hz pipeline: sample -> estimator -> modes -> controller -> servo frame
     servo_map = ServoMap(params, payloads.servo_channels, overrides_us=vehicle.servo_overrides_us)

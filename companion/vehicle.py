@@ -36,7 +36,7 @@ from companion.modes.base import ModeOutput
 from companion.modes.manager import ModeManager
 from companion.params import ParamStore
 
-__all__ = ["FORCE_MAGIC", "NAV_STALE_S", "MissionState", "PrearmCheck", "Vehicle", "first_mission_seq"]
+__all__ = ["FORCE_MAGIC", "NAV_STALE_S", "MissionState", "PrearmCheck", "Vehicle", "home_placeholder_profile"]
 
 log = logging.getLogger(__name__)
 
@@ -49,9 +49,9 @@ FORCE_MAGIC = 21196
 PrearmCheck = Callable[["Vehicle"], str | None]
 
 
-def first_mission_seq(profile: str) -> int:
-    """Under ``ardurover`` item 0 is home and the mission starts at 1."""
-    return 1 if profile == "ardurover" else 0
+def home_placeholder_profile(profile: str) -> bool:
+    """Whether ``profile`` keeps ArduPilot's convention that mission item 0 is home (``ardurover``)."""
+    return profile == "ardurover"
 
 
 class Vehicle:
@@ -233,7 +233,7 @@ class Vehicle:
         return self.mission.first_seq
 
     def mission_items(self) -> list[MissionItem]:
-        """The stored mission with wire sequence numbers (item 0 is home under ``ardurover``)."""
+        """The stored mission with wire sequence numbers (item 0 is skipped when it is the home placeholder)."""
         return self.mission.items()
 
     @property

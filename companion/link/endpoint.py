@@ -15,8 +15,9 @@ from collections import defaultdict
 from collections.abc import Callable
 from typing import Any
 
-from companion.clock import Clock
+from companion.clock import Clock, WallClock
 from companion.link.dialect import new_codec
+from companion.link.gcs_presence import GcsPresence
 from companion.link.streams import StreamRates
 from companion.link.tlog import TlogWriter
 
@@ -57,7 +58,7 @@ class Link:
 
     def __init__(self, name: str, write: Callable[[bytes], None], *, clock: Clock, dispatcher: Dispatcher,
                  system_id: int = 1, component_id: int = 1, tlog: TlogWriter | None = None,
-                 rates: StreamRates | None = None) -> None:
+                 rates: StreamRates | None = None, wall: Clock | None = None) -> None:
         self.name = name
         self._write = write
         self.clock = clock
@@ -72,7 +73,8 @@ class Link:
         self.tx_frames = 0
         self.rx_errors = 0
         self.last_rx_s: float | None = None
-        self.last_gcs_heartbeat_s: float | None = None
+        self.gcs = GcsPresence(clock, wall if wall is not None else WallClock())
+        """The ground station's heartbeats on this link (GCS failsafe, :mod:`.gcs_presence`)."""
         self.peer: tuple[int, int] | None = None
 
     # -- sending -------------------------------------------------------------------------
@@ -156,8 +158,10 @@ class Link:
         now_s = self.clock.now_s()
         self.last_rx_s = now_s
         if msg.get_type() == "HEARTBEAT" and getattr(msg, "type", None) == MAV_TYPE_GCS:
-            self.last_gcs_heartbeat_s = now_s
+            self.gcs.heard(heartbeat=True)
             self.peer = (msg.get_srcSystem(), msg.get_srcComponent())
+        elif self.peer is not None and self.peer == (msg.get_srcSystem(), msg.get_srcComponent()):
+            self.gcs.heard(heartbeat=False)  # a command or request from the ground station: it is there
         target_system = getattr(msg, "target_system", 0)
         if target_system not in (0, self.system_id):
             return

@@ -20,8 +20,10 @@ from pathlib import Path
 from typing import Any
 
 from companion.app import BaseService, Context
+from companion.clock import WallClock
 from companion.link import streams
 from companion.link.endpoint import Dispatcher, Link
+from companion.link.gcs_presence import Silence
 from companion.link.tlog import TlogWriter
 from companion.link.transports import SerialPort, TcpServer, UdpTarget
 
@@ -52,6 +54,8 @@ class LinkManager(BaseService):
         self.tcp: TcpServer | None = None
         self.serial: list[SerialPort] = []
         self.link_listeners: list[Callable[[Link], None]] = []
+        self.wall = WallClock()
+        """The wall clock next to ``ctx.clock``: ground stations pace their heartbeats by it."""
         self._tlog_dir: Path | None = None
         self._session = time.strftime("%Y%m%d-%H%M%S", time.gmtime(ctx.clock.unix_time_s()))
 
@@ -62,7 +66,7 @@ class LinkManager(BaseService):
             safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
             tlog = TlogWriter(self._tlog_dir / f"{self._session}-{safe}.tlog")
         link = Link(name, write, clock=self.ctx.clock, dispatcher=self.dispatcher, system_id=self.system_id,
-                    component_id=self.component_id, tlog=tlog,
+                    component_id=self.component_id, tlog=tlog, wall=self.wall,
                     rates=streams.StreamRates(self.stream_rates_hz, self.stream_groups))
         self.links.append(link)
         for listener in tuple(self.link_listeners):
@@ -82,9 +86,19 @@ class LinkManager(BaseService):
             link.send(msg)
 
     def gcs_heartbeat_age_s(self) -> float | None:
-        """Seconds since the last GCS heartbeat on any link (``None``: never heard)."""
-        stamps = [link.last_gcs_heartbeat_s for link in self.links if link.last_gcs_heartbeat_s is not None]
-        return None if not stamps else self.ctx.clock.now_s() - max(stamps)
+        """Seconds (vehicle clock) since the last GCS heartbeat on any link (``None``: never heard)."""
+        silences = self.gcs_silences()
+        return min(s.vehicle_s for s in silences) if silences else None
+
+    def gcs_silences(self) -> list[Silence]:
+        """The silence of the ground station on every link that has heard one."""
+        return [s for s in (link.gcs.silence() for link in self.links) if s is not None]
+
+    def gcs_lost(self, timeout_s: float) -> bool:
+        """Every ground station heard so far is silent for ``timeout_s`` (:mod:`.gcs_presence`'s
+        rule: vehicle time, and wall time for stations pacing heartbeats by the wall clock)."""
+        silences = self.gcs_silences()
+        return bool(silences) and all(s.exceeds(timeout_s) for s in silences)
 
     # -- life cycle -----------------------------------------------------------------------
     async def start(self) -> None:

@@ -24,8 +24,7 @@ def register_manual_control(ctx: Context, links: LinkManager) -> None:
     def on_manual_control(link: Link, msg: Any) -> None:
         if int(getattr(msg, "target", -1)) != links.system_id:
             return  # aimed at another vehicle
-        now_s = ctx.clock.now_s()
-        link.last_gcs_heartbeat_s = now_s
-        topic.publish(from_manual_control(now_s, float(msg.y), float(msg.z)))
+        link.gcs.heard(heartbeat=False)
+        topic.publish(from_manual_control(ctx.clock.now_s(), float(msg.y), float(msg.z)))
 
     links.dispatcher.on("MANUAL_CONTROL", on_manual_control)

@@ -8,9 +8,17 @@ spec's 1.5 s / 5 retries, with more retries so an upload survives 30 % packet lo
 plan is installed and persisted only when complete and valid, then MISSION_ACK.
 
 Download: MISSION_REQUEST_LIST -> MISSION_COUNT; items are served statelessly for any
-request, so lost packets only cost the ground station a retry.  Under the ``ardurover``
-profile item 0 of the mission is the home position (what MAVSDK and QGC expect from
-ArduPilot): a download always has it, filled with the current home.
+request, so lost packets only cost the ground station a retry.
+
+Item 0 under the ``ardurover`` profile: QGroundControl, Mission Planner and MAVProxy put a
+placeholder for home at item 0 of an ArduPilot mission; MAVSDK's Mission plugin does not.
+A complete upload is classified by :func:`companion.mission.convention.classify`: a
+placeholder is stored as such (never executed, and served back filled with the current home,
+as ArduPilot does), anything else is the first mission item (served back exactly as
+uploaded); an empty mission downloads as home alone, as from ArduPilot.  An upload whose
+item 0 could be either is refused with MAV_MISSION_INVALID and a STATUSTEXT saying how to make
+it unambiguous; the accepting STATUSTEXT names the convention.  The ``generic`` profile has no
+placeholder.
 
 Also: MISSION_CLEAR_ALL, MISSION_SET_CURRENT (answered with MISSION_CURRENT) and
 MISSION_ITEM_REACHED broadcast when AUTO reports progress.
@@ -30,6 +38,7 @@ from companion.link.endpoint import Link
 from companion.link.manager import LinkManager
 from companion.mavlink import telemetry
 from companion.messages import Severity
+from companion.mission import convention
 from companion.mission import validate as v
 from companion.mission.items import MissionItem, MissionType
 from companion.vehicle import Vehicle
@@ -149,8 +158,10 @@ class MissionService:
                 self._request(up)  # our request was answered twice or lost: ask again for the next one
             return
         item = item_from_msg(msg).with_seq(seq)
-        is_home = self.home_first and seq == 0 and mtype == MissionType.MISSION
-        problem = self.validator.validate_item(item, home_item=is_home)
+        maybe_home = (self.home_first and seq == 0 and mtype == MissionType.MISSION
+                      and convention.looks_like_home(item))
+        # fully checked at the end if not home
+        problem = self.validator.validate_item(item, home_item=maybe_home)
         if problem is not None:
             self._refuse(up, problem)
             return
@@ -159,13 +170,18 @@ class MissionService:
         if up.expected < up.count:
             self._request(up)
             return
-        problem = self.validator.validate_plan(up.items, home_first=self.home_first)
+        verdict = self._convention(up)
+        if verdict.convention is None:
+            self._refuse(up, v.ItemProblem(v.INVALID, verdict.reason))
+            return
+        home_item = verdict.convention is convention.Convention.HOME_PLACEHOLDER
+        problem = self.validator.validate_plan(up.items, home_first=home_item)
         if problem is not None:
             self._refuse(up, problem)
             return
         del self.uploads[(id(link), mtype)]
         try:
-            self.store.replace(mtype, up.items)
+            self.store.replace(mtype, up.items, home_item=home_item)
         except OSError as exc:
             self._ack(link, up.peer, v.ERROR, mtype)
             self.vehicle.status(f"Mission not saved: {exc}", Severity.WARNING)
@@ -173,7 +189,15 @@ class MissionService:
         self.completed_uploads += 1
         self._ack(link, up.peer, v.ACCEPTED, mtype)
         kind = MissionType(mtype).name.lower()
-        self.vehicle.status(f"{kind.capitalize()} received: {up.count} items")
+        how = f" ({verdict.reason})" if mtype == MissionType.MISSION and self.home_first else ""
+        self.vehicle.status(f"{kind.capitalize()} received: {up.count} items{how}")
+
+    def _convention(self, up: Upload) -> convention.Verdict:
+        """How item 0 of a complete upload is to be read (always plain without home-first)."""
+        if not (self.home_first and up.mission_type == MissionType.MISSION):
+            return convention.Verdict(convention.Convention.PLAIN, "")
+        home = self.vehicle.home
+        return convention.classify(up.items, None if home is None else (home.lat_deg, home.lon_deg))
 
     async def run(self) -> None:
         """Repeat unanswered item requests; give up after :attr:`max_retries`."""
@@ -195,13 +219,18 @@ class MissionService:
 
     # -- download -----------------------------------------------------------------------
     def download_plan(self, mission_type: int) -> list[MissionItem]:
-        """What a download returns: the stored plan, with home as item 0 under ``ardurover``."""
+        """What a download returns: the plan as uploaded, a home placeholder filled with the current
+        home; no mission under ``ardurover`` is home alone, as ArduPilot serves it (MAVProxy's
+        ``wp list`` waits for at least one item)."""
         plan = self.store.items(mission_type)
-        if self.home_first and mission_type == MissionType.MISSION:
-            home = self.vehicle.home
-            if home is not None:
-                home_item = MissionItem.home(home.lat_deg, home.lon_deg, home.alt_m)
-                plan = [home_item, *plan[1:]] if plan else [home_item]
+        home = self.vehicle.home
+        if not (self.home_first and mission_type == MissionType.MISSION and home is not None):
+            return plan
+        home_item = MissionItem.home(home.lat_deg, home.lon_deg, home.alt_m)
+        if not plan:
+            return [home_item]
+        if self.vehicle.first_mission_seq == 1:
+            plan[0] = home_item
         return plan
 
     def _on_request_list(self, link: Link, msg: Any) -> None:

@@ -7,7 +7,8 @@ changes what the boat does:
 * ``WP_RADIUS``, ``WP_SPEED``, ``CRUISE_SPEED``, ``LOIT_RADIUS``: read by the guidance
   and modes (AUTO, GUIDED, LOITER) of the guidance/control issue.
 * ``FS_GCS_ENABLE``, ``FS_GCS_TIMEOUT``, ``FS_ACTION``: the ground-station failsafe in
-  :meth:`companion.mavlink.service.MavlinkService.check_failsafe` (simulation/vehicle clock).
+  :meth:`companion.mavlink.service.MavlinkService.check_failsafe` (vehicle clock; when the
+  simulation runs faster than real time, also the wall clock: :mod:`companion.link.gcs_presence`).
 * ``MIS_DONE_BEHAVE``: what AUTO does after the last item (ArduRover's 0 Hold, 1 Loiter);
   read by AUTO.
 
@@ -33,7 +34,8 @@ PARAMS: tuple[ParamDef, ...] = (
              "heartbeats), 2 enabled but AUTO continues its mission.", is_int=True,
              choices=((0, "Disabled"), (1, "Enabled"), (2, "Enabled, continue mission in AUTO"))),
     ParamDef("FS_GCS_TIMEOUT", 5.0, 2.0, 120.0, "s",
-             "Seconds without a ground-station heartbeat before the GCS failsafe acts."),
+             "Seconds without a ground-station heartbeat before the GCS failsafe acts (vehicle clock; in "
+             "SITL faster than real time also 3 missed wall-clock heartbeats)."),
     ParamDef("FS_ACTION", 2, 0, 2, "",
              "Failsafe action: 0 nothing, 1 RTL, 2 HOLD.", is_int=True,
              choices=((0, "Nothing"), (1, "RTL"), (2, "Hold"))),

@@ -173,26 +173,31 @@ class MavlinkService(BaseService):
             self.check_failsafe()
 
     def check_failsafe(self) -> None:
-        """FS_GCS_* and USV_FS_ENG_STOP against the age of the last GCS heartbeat.
+        """FS_GCS_* and USV_FS_ENG_STOP against the silence of the ground stations.
 
-        Ages are in ``ctx.clock`` time (simulated seconds in SITL).  Armed and silent for
-        FS_GCS_TIMEOUT: STATUSTEXT and FS_ACTION's mode (RTL falls back to HOLD); silent for
-        USV_FS_ENG_STOP: disarm, which turns the ignition off (the boat coasts).  A returning
-        ground station only clears the failsafe flag (STATUSTEXT "GCS failsafe cleared"): the
-        mode stays as the failsafe left it and a stopped engine stays stopped until the
-        operator re-arms and picks a mode.
+        A ground station is lost by :mod:`companion.link.gcs_presence`'s rule: silent for the
+        timeout on the vehicle clock (simulated seconds in SITL) and, when it paces its 1 Hz
+        heartbeats by the wall clock while the vehicle clock runs faster (``--speedup``), for
+        three of its heartbeat periods of wall time too.  Armed and lost for FS_GCS_TIMEOUT:
+        STATUSTEXT and FS_ACTION's mode (RTL falls back to HOLD) -- unless the boat is already
+        in RTL or HOLD, which ArduPilot Rover also leaves alone, so RTL stays RTL until home.
+        Lost for USV_FS_ENG_STOP: disarm, which turns the ignition off (the boat coasts),
+        whatever the mode.  A returning ground station only clears the failsafe flag
+        (STATUSTEXT "GCS failsafe cleared"): the mode stays as the failsafe left it and a
+        stopped engine stays stopped until the operator re-arms and picks a mode.
         """
-        params, vehicle = self.ctx.params, self.vehicle
-        age_s = self.links.gcs_heartbeat_age_s()
+        params, vehicle, links = self.ctx.params, self.vehicle, self.links
+        age_s = links.gcs_heartbeat_age_s()
         if age_s is None:
             return  # no ground station heard yet: nothing to lose
         enable = params.get_int("FS_GCS_ENABLE")
-        timeout_s = params.get("FS_GCS_TIMEOUT")
-        lost = age_s > timeout_s
-        if lost and enable and vehicle.armed and not self._failsafe_gcs:
+        lost = links.gcs_lost(params.get("FS_GCS_TIMEOUT"))
+        mode = vehicle.modes.current.number
+        in_safe_mode = mode in (ModeNumber.RTL, ModeNumber.HOLD)  # already what a failsafe would do
+        if lost and enable and vehicle.armed and not self._failsafe_gcs and not in_safe_mode:
             self._failsafe_gcs = True
             vehicle.failsafe_reason = "gcs"
-            continue_auto = enable == FS_GCS_CONTINUE_AUTO and vehicle.modes.current.number == ModeNumber.AUTO
+            continue_auto = enable == FS_GCS_CONTINUE_AUTO and mode == ModeNumber.AUTO
             vehicle.status(f"GCS failsafe: no heartbeat for {age_s:.0f} s", Severity.CRITICAL)
             action = params.get_int("FS_ACTION")
             if not continue_auto and action in (FS_ACTION_RTL, FS_ACTION_HOLD):
@@ -205,8 +210,9 @@ class MavlinkService(BaseService):
             vehicle.failsafe_reason = None
             vehicle.status("GCS failsafe cleared", Severity.INFO)
         stop_s = params.get("USV_FS_ENG_STOP")
-        if stop_s > 0 and age_s > stop_s and vehicle.armed and not self._failsafe_engine:
+        engine_lost = stop_s > 0 and links.gcs_lost(stop_s)
+        if engine_lost and vehicle.armed and not self._failsafe_engine:
             self._failsafe_engine = True
             vehicle.disarm(reason=f"engine stop, no ground station for {stop_s:.0f} s")
-        elif age_s <= stop_s:
+        elif not engine_lost:
             self._failsafe_engine = False

@@ -1,9 +1,10 @@
 """Where the vehicle is in its stored mission: the current item, started, complete.
 
 :class:`MissionCursor` is what AUTO reads and moves (item by item, DO_JUMP, the operator's
-MISSION_SET_CURRENT) and what MISSION_CURRENT reports.  Under the ``ardurover`` profile item 0
-is the home position and is never executed (``first_seq`` 1); a new plan puts the cursor back
-on the first item.
+MISSION_SET_CURRENT) and what MISSION_CURRENT reports.  Under the ``ardurover`` profile, when
+the stored plan was uploaded in ArduPilot's convention (:mod:`companion.mission.convention`),
+item 0 is the home position and is never executed (``first_seq`` 1); a new plan puts the
+cursor back on the first item.
 """
 
 from __future__ import annotations
@@ -29,11 +30,11 @@ class MissionState(enum.IntEnum):
 class MissionCursor:
     """The current item of the mission in ``store`` and the mission's progress."""
 
-    def __init__(self, store: MissionStore, first_seq: int) -> None:
+    def __init__(self, store: MissionStore, home_placeholder_profile: bool) -> None:
         self.store = store
-        self.first_seq = first_seq
-        """Sequence number of the first executable item (1 when item 0 is home)."""
-        self._current_seq = first_seq
+        self.home_placeholder_profile = home_placeholder_profile
+        """The profile keeps ArduPilot's item-0-is-home convention (``ardurover``)."""
+        self._current_seq = self.first_seq
         self._started = False
         self._complete = False
         self.changed_listeners: list[Callable[[], None]] = []
@@ -43,6 +44,12 @@ class MissionCursor:
         store.add_listener(self._on_plan_changed)
 
     # -- the plan -------------------------------------------------------------------------
+    @property
+    def first_seq(self) -> int:
+        """Sequence number of the first executable item: 1 when item 0 is the home placeholder."""
+        home_item = self.store.has_home_item(MissionType.MISSION)
+        return 1 if self.home_placeholder_profile and home_item else 0
+
     def items(self) -> list[MissionItem]:
         """The stored mission (MAV_MISSION_TYPE_MISSION) with wire sequence numbers."""
         return self.store.items(MissionType.MISSION)

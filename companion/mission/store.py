@@ -3,6 +3,10 @@
 Each plan is a JSON file in ``<state_dir>/missions/`` replaced atomically (temporary file,
 fsync, rename) after every accepted upload or clear, so a power cut leaves either the old
 or the new plan, never half of one.  A damaged file is reported and treated as empty.
+
+Each plan remembers whether its item 0 is ArduPilot's home placeholder (the convention the
+upload used, :mod:`companion.mission.convention`), so a download gives every client back the
+shape it uploaded.  Plans saved before that flag existed are classified from their items.
 """
 
 from __future__ import annotations
@@ -12,6 +16,7 @@ import logging
 from collections.abc import Callable
 from pathlib import Path
 
+from companion.mission.convention import Convention, classify
 from companion.mission.items import MissionItem, MissionType
 from companion.params import atomic_write_text
 
@@ -30,6 +35,7 @@ class MissionStore:
         self.directory = directory
         self._plans: dict[MissionType, list[MissionItem]] = {t: [] for t in MissionType}
         self._versions: dict[MissionType, int] = {t: 0 for t in MissionType}
+        self._home_item: dict[MissionType, bool] = {t: False for t in MissionType}
         self._listeners: list[ChangeListener] = []
         self.load_warnings: list[str] = []
         if directory is not None:
@@ -47,13 +53,24 @@ class MissionStore:
         """Increases on every change (MISSION_ACK/MISSION_COUNT opaque id material)."""
         return self._versions[MissionType(mission_type)]
 
+    def has_home_item(self, mission_type: int = MissionType.MISSION) -> bool:
+        """Item 0 of the plan is ArduPilot's home placeholder (never executed)."""
+        return self._home_item[MissionType(mission_type)]
+
     def add_listener(self, listener: ChangeListener) -> None:
         self._listeners.append(listener)
 
-    def replace(self, mission_type: int, plan: list[MissionItem]) -> None:
-        """Install a complete, already validated plan and persist it."""
+    def replace(self, mission_type: int, plan: list[MissionItem], *, home_item: bool | None = None) -> None:
+        """Install a complete, already validated plan and persist it.
+
+        ``home_item``: item 0 is ArduPilot's home placeholder; ``None`` decides it from the items
+        alone (:func:`~companion.mission.convention.classify` without a vehicle home).
+        """
         mtype = MissionType(mission_type)
         self._plans[mtype] = [item.with_seq(i) for i, item in enumerate(plan)]
+        if home_item is None:
+            home_item = _home_item(mtype, plan)
+        self._home_item[mtype] = home_item and bool(plan)
         self._versions[mtype] += 1
         self._save(mtype)
         for listener in tuple(self._listeners):
@@ -74,7 +91,8 @@ class MissionStore:
         path = self._path(mtype)
         if path is None:
             return
-        data = {"mission_type": int(mtype), "items": [item.to_dict() for item in self._plans[mtype]]}
+        data = {"mission_type": int(mtype), "home_item": self._home_item[mtype],
+                "items": [item.to_dict() for item in self._plans[mtype]]}
         atomic_write_text(path, json.dumps(data, indent=1, allow_nan=True) + "\n")
 
     def _load(self, mtype: MissionType) -> None:
@@ -84,9 +102,16 @@ class MissionStore:
         try:
             data = json.loads(path.read_text(encoding="utf-8"))
             plan = [MissionItem.from_dict(d) for d in data["items"]]
+            home_item = bool(data["home_item"]) if "home_item" in data else _home_item(mtype, plan)
         except (OSError, ValueError, KeyError, TypeError) as exc:
             warning = f"{path}: cannot read saved {mtype.name.lower()} plan ({exc}); starting empty"
             log.warning("%s", warning)
             self.load_warnings.append(warning)
             return
         self._plans[mtype] = [item.with_seq(i) for i, item in enumerate(plan)]
+        self._home_item[mtype] = home_item and bool(plan)
+
+
+def _home_item(mtype: MissionType, plan: list[MissionItem]) -> bool:
+    """Whether item 0 of a plan given without its convention is a home placeholder (items only)."""
+    return mtype == MissionType.MISSION and classify(plan, None).convention is Convention.HOME_PLACEHOLDER

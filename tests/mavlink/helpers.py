@@ -21,7 +21,7 @@ from companion.modes.manager import MODE_CLASSES, ModeManager
 from companion.param_table import all_param_defs
 from companion.params import ParamStore
 from companion.runtime import Services
-from companion.vehicle import Vehicle, first_mission_seq
+from companion.vehicle import Vehicle, home_placeholder_profile
 
 HOME_LAT_DEG = 41.77
 HOME_LON_DEG = 123.43
@@ -38,7 +38,7 @@ def make_ctx(state_dir: Path | None = None, profile: str = "ardurover") -> Conte
 
 def make_vehicle(ctx: Context, modes: list[type[Mode]] | None = None) -> Vehicle:
     """A vehicle on ``ctx`` with the given modes (default: all), no model (PID), no payloads."""
-    mission = MissionCursor(MissionStore(), first_mission_seq(str(ctx.config["vehicle.profile"])))
+    mission = MissionCursor(MissionStore(), home_placeholder_profile(str(ctx.config["vehicle.profile"])))
     control = ControlSystem(ctx.params, ctx.clock, ctx.bus, None)
     return Vehicle(ctx, mission, ModeManager(modes or MODE_CLASSES), control)
 

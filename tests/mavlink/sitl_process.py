@@ -5,7 +5,7 @@ from __future__ import annotations
 import contextlib
 import subprocess
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 from tests.conftest import usv_command
@@ -21,9 +21,12 @@ def write_config(path: Path, state_dir: Path, udp_ports: list[int], tcp_port: in
 
 @contextlib.contextmanager
 def sitl(config: Path, env: dict[str, str], *, speedup: float = 1.0, log: Path | None = None,
-         ready_timeout_s: float = 60.0) -> Iterator[subprocess.Popen[bytes]]:
-    """``usv sitl`` following the wall clock (``speedup`` x), stopped with SIGINT afterwards."""
-    args = [*usv_command(), "sitl", "-c", str(config)]
+         ready_timeout_s: float = 60.0, extra_args: Sequence[str] = ()) -> Iterator[subprocess.Popen[bytes]]:
+    """``usv sitl`` following the wall clock (``speedup`` x), stopped with SIGINT afterwards.
+
+    ``extra_args``: more command-line flags (``--current``, ``--wind``, ``--waves``, ``--seed``).
+    """
+    args = [*usv_command(), "sitl", "-c", str(config), *extra_args]
     args += ["--realtime"] if speedup == 1.0 else ["--speedup", str(speedup)]
     out_path = log or config.with_suffix(".log")
     out = open(out_path, "wb")  # noqa: SIM115 - closed below

@@ -97,3 +97,45 @@ async def test_gcs_loss_rtl_then_engine_stop_then_nothing_restored() -> None:
         assert not vehicle.armed and vehicle.modes.current.number == MODE_RTL
         assert h.boat.pulses[CH_IGNITION] == 1100 and not h.plant.state.engine_running
         assert not math.isnan(h.plant.state.north_m)
+
+
+async def test_gcs_loss_while_returning_home_keeps_rtl_until_home_and_still_stops_the_engine() -> None:
+    """As ArduPilot Rover: a boat already in RTL is not switched to FS_ACTION's HOLD (which would
+    leave it drifting); it goes on home, and the engine stop still comes after USV_FS_ENG_STOP."""
+    params = {"FS_GCS_ENABLE": 1, "FS_GCS_TIMEOUT": FS_GCS_TIMEOUT_S, "FS_ACTION": 2,
+              "USV_FS_ENG_STOP": ENG_STOP_S, "WP_SPEED": 4.0}
+    async with sitl_with_gcs(params=params) as (h, gcs):
+        heartbeats = {"on": True, "next_s": 0.0}
+
+        def gcs_heartbeat(nav: NavState) -> None:
+            if heartbeats["on"] and nav.t_s >= heartbeats["next_s"]:
+                heartbeats["next_s"] = nav.t_s + 1.0
+                gcs.heartbeat()
+
+        h.ctx.bus.topic("nav", NavState).add_listener(gcs_heartbeat)
+        await h.run_for(2.0)
+        vehicle = h.services.vehicle
+        assert (await run_until_done(h, gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1))).result == 0
+        nav = vehicle.nav()
+        assert nav is not None
+        ack = await run_until_done(h, gcs.command(mav.MAV_CMD_DO_REPOSITION, -1,
+                                                  mav.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE, 0, 0,
+                                                  round((nav.lat_deg + 60.0 / 111_320.0) * 1e7),
+                                                  round(nav.lon_deg * 1e7), 0, as_int=True,
+                                                  frame=mav.MAV_FRAME_GLOBAL_INT))
+        assert ack.result == mav.MAV_RESULT_ACCEPTED
+        await h.run_for(20.0)
+        assert vehicle.set_mode(MODE_RTL) is None and h.plant.state.north_m > 30.0
+
+        heartbeats["on"] = False  # lost while returning
+        last_hb_s = heartbeats["next_s"] - 1.0
+        home_text = asyncio.ensure_future(gcs.wait("STATUSTEXT", lambda m: "home reached" in m.text, 60))
+        home_s = None
+        while vehicle.armed:
+            await h.run_for(0.1)
+            if home_s is None and home_text.done():
+                home_s = h.clock.now_s() - last_hb_s
+            assert vehicle.modes.current.number == MODE_RTL  # never HOLD, before or after home
+            assert h.clock.now_s() - last_hb_s < ENG_STOP_S + 2.0, "engine never stopped"
+        assert ENG_STOP_S <= h.clock.now_s() - last_hb_s <= ENG_STOP_S + 0.5
+        assert home_s is not None and FS_GCS_TIMEOUT_S + 2.0 < home_s < ENG_STOP_S  # lost before home

@@ -1,0 +1,247 @@
+#!/usr/bin/env python3
+"""Rescue: throw a lifebuoy on a rope to a person in the water (chapter section 4.1).
+
+The boat approaches at speed, slows down, stops beside the casualty at ``--standoff``
+metres with its bow toward them (the launcher is fixed to the hull and throws forward),
+arms and fires the rope launcher (the dialect's mission item USV_CMD_NAV_LAUNCH_AT: the
+vehicle fires only with every interlock satisfied, bow on the bearing and stopped), holds
+station while the person is pulled alongside, and tows them home at ``--tow-speed``.
+
+    python missions/rescue.py                       # casualty 100 m north, 30 m east of home
+    python missions/rescue.py --casualty 150,-40    # metres north,east of home
+    python missions/rescue.py --casualty-at 41.7712,123.4301 --url udpin://0.0.0.0:14550
+
+Success (exit 0): one launch, fired within ``--launch-tol`` metres of the planned launch point
+with the bow within ``--bearing-tol`` degrees of the casualty, and the boat back within
+WP_RADIUS of home and disarmed.  The summary gives the time to the casualty (mission start to
+launch), the distance and bearing error at launch and the time on station (vehicle seconds).
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import math
+import sys
+from typing import Any
+
+from mavsdk.plugins.mission_raw import MissionItem
+
+from mavlink_dialect import UsvCmd
+from missions.common import Boat, MissionError, add_common_arguments, finish, fly, parse_pair
+
+NAME = "rescue"
+FRAME_MISSION, FRAME_GLOBAL_RELATIVE_ALT_INT = 2, 6
+CMD_NAV_WAYPOINT, CMD_NAV_LOITER_TIME, CMD_NAV_RETURN_TO_LAUNCH, CMD_DO_CHANGE_SPEED = 16, 19, 20, 178
+LAUNCH_SEQ = 3
+STOPPED_MPS = 1.8
+"""The vehicle's "stopped" for a jet boat on a bearing (AUTO's launch item)."""
+ROPE_RANGE_M = 150.0
+"""The launcher's farthest throw (chapter section 4.1)."""
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument("--casualty", type=lambda t: parse_pair(t, "--casualty"), default=(100.0, 30.0),
+                       metavar="NORTH_M,EAST_M", help="casualty position relative to home (default 100,30)")
+    where.add_argument("--casualty-at", type=lambda t: parse_pair(t, "--casualty-at"), default=None,
+                       metavar="LAT,LON", help="casualty position in degrees")
+    parser.add_argument("--standoff", type=float, default=15.0, metavar="M",
+                        help="launch from this far from the casualty (default 15, at most 150)")
+    parser.add_argument("--approach-speed", type=float, default=5.0, metavar="MPS", help="default 5")
+    parser.add_argument("--slow-speed", type=float, default=2.0, metavar="MPS",
+                        help="speed over the last --slow-down metres (default 2)")
+    parser.add_argument("--slow-down", type=float, default=40.0, metavar="M", help="default 40")
+    parser.add_argument("--hold", type=float, default=30.0, metavar="S",
+                        help="time on station after the launch, person pulled alongside (default 30)")
+    parser.add_argument("--aim-timeout", type=float, default=180.0, metavar="S",
+                        help="give up when the launcher has not fired this long after the boat set off for "
+                             "the launch point (default 180)")
+    parser.add_argument("--tow-speed", type=float, default=1.5, metavar="MPS", help="default 1.5")
+    parser.add_argument("--launch-tol", type=float, default=8.0, metavar="M",
+                        help="largest distance of the launch from the planned point (default 8)")
+    parser.add_argument("--bearing-tol", type=float, default=10.0, metavar="DEG",
+                        help="largest angle between the bow and the casualty at launch (default 10)")
+    add_common_arguments(parser, timeout_s=900.0)
+    args = parser.parse_args(argv)
+    if not 0.0 < args.standoff <= ROPE_RANGE_M:
+        parser.error(f"--standoff {args.standoff} m: must be in (0, {ROPE_RANGE_M:.0f}]")
+    for name in ("approach_speed", "slow_speed", "tow_speed"):
+        if not 0.0 < getattr(args, name) <= 10.0:
+            parser.error(f"--{name.replace('_', '-')}: must be in (0, 10] m/s")
+    return args
+
+
+def _item(seq: int, command: int, lat_lon: tuple[float, float] | None = None, *params: float) -> MissionItem:
+    p = [*params, *([0.0] * (4 - len(params)))]
+    x, y = (round(lat_lon[0] * 1e7), round(lat_lon[1] * 1e7)) if lat_lon else (0, 0)
+    frame = FRAME_GLOBAL_RELATIVE_ALT_INT if lat_lon else FRAME_MISSION
+    return MissionItem(seq, frame, command, 1 if seq == 0 else 0, 1, p[0], p[1], p[2], p[3], x, y, 0.0, 0)
+
+
+def plan(boat: Boat, casualty_ne: tuple[float, float], args: argparse.Namespace) -> dict[str, Any]:
+    """The mission items and the geometry they were planned from (north-east metres from home)."""
+    frame = boat.frame()
+    here = boat.position_ne()
+    dn, de = casualty_ne[0] - here[0], casualty_ne[1] - here[1]
+    dist = math.hypot(dn, de)
+    if dist <= args.standoff:
+        raise MissionError(f"casualty is {dist:.0f} m away, closer than the standoff ({args.standoff:.0f} m)")
+    un, ue = dn / dist, de / dist
+    launch_ne = (casualty_ne[0] - args.standoff * un, casualty_ne[1] - args.standoff * ue)
+    bearing_deg = math.degrees(math.atan2(ue, un)) % 360.0
+    slow_m = min(args.slow_down, dist - args.standoff)
+    slow_ne = (launch_ne[0] - slow_m * un, launch_ne[1] - slow_m * ue)
+    launch_ll = frame.to_lat_lon(*launch_ne)
+    items = [
+        _item(0, CMD_DO_CHANGE_SPEED, None, 1.0, args.approach_speed, -1.0),
+        _item(1, CMD_NAV_WAYPOINT, frame.to_lat_lon(*slow_ne)),
+        _item(2, CMD_DO_CHANGE_SPEED, None, 1.0, args.slow_speed, -1.0),
+        _item(LAUNCH_SEQ, UsvCmd.NAV_LAUNCH_AT, launch_ll, bearing_deg),
+        _item(4, CMD_NAV_LOITER_TIME, launch_ll, args.hold),
+        _item(5, CMD_DO_CHANGE_SPEED, None, 1.0, args.tow_speed, -1.0),
+        _item(6, CMD_NAV_RETURN_TO_LAUNCH),
+    ]
+    names = ["approach speed", "approach", "slow down", "stop, aim and fire", "hold: person pulled alongside",
+             "towing speed", "tow home"]
+    return {"items": items, "names": names, "launch_ne": launch_ne, "bearing_deg": bearing_deg}
+
+
+async def check_launcher(boat: Boat) -> dict[str, Any]:
+    """The launcher's status before leaving: loaded and pressurised, or :class:`MissionError`."""
+    await boat.until(lambda: boat.rec.launcher is not None, 30.0, "launcher status (USV_LAUNCHER_STATUS)")
+    status = boat.rec.launcher
+    assert status is not None
+    if status["shots_left"] < 1:
+        raise MissionError("rope launcher is empty: reload it (and set USV_LNCH_SHOTS) before a rescue")
+    pressure, needed = status["cylinder_pressure_mpa"], status["min_pressure_mpa"]
+    if not (pressure is not None and math.isfinite(pressure) and pressure >= needed):
+        raise MissionError(f"launcher pressure {pressure} MPa below the {needed} MPa needed to fire")
+    return status
+
+
+def launch_report(boat: Boat, before: dict[str, Any], casualty_ne: tuple[float, float],
+                  p: dict[str, Any], start_s: float, station_s: float | None) -> dict[str, Any]:
+    """Where, when and how the launch happened, from USV_LAUNCHER_STATUS (vehicle figures)."""
+    now = boat.rec.launcher or before
+    if now["last_launch_time_unix_usec"] in (0, before["last_launch_time_unix_usec"]):
+        return {"launched": False}
+    frame = boat.frame()
+    at_ne = frame.to_ne(now["last_launch_lat"] / 1e7, now["last_launch_lon"] / 1e7)
+    heading_deg = now["last_launch_heading"] / 100.0
+    to_casualty = (casualty_ne[0] - at_ne[0], casualty_ne[1] - at_ne[1])
+    bearing_deg = math.degrees(math.atan2(to_casualty[1], to_casualty[0])) % 360.0
+    launch_s = boat.vehicle_time_s(now["last_launch_time_unix_usec"])
+    return {
+        "launched": True,
+        "shots_used": before["shots_left"] - now["shots_left"],
+        "launch_north_m": round(at_ne[0], 2), "launch_east_m": round(at_ne[1], 2),
+        "distance_error_m": round(math.dist(at_ne, p["launch_ne"]), 2),
+        "range_to_casualty_m": round(math.hypot(*to_casualty), 2),
+        "heading_deg": round(heading_deg, 1),
+        "bearing_error_deg": round(abs((heading_deg - bearing_deg + 180.0) % 360.0 - 180.0), 1),
+        "time_to_casualty_s": round(launch_s - start_s, 1),
+        "time_to_station_s": None if station_s is None else round(station_s - start_s, 1),
+    }
+
+
+def aiming_report(boat: Boat, p: dict[str, Any], casualty_ne: tuple[float, float],
+                  args: argparse.Namespace) -> dict[str, Any]:
+    """How close the boat came to firing conditions after it set off for the launch point: share
+    of the time within ``--launch-tol`` of the point, the best bow error while stopped there (at
+    most the vehicle's 1.8 m/s "stopped" for a jet), and the longest stretch stopped there with the
+    bow within ``--bearing-tol`` (the vehicle fires after USV_LNCH_HOLD_S, 3 s) -- figures for a
+    launch that never came."""
+    frame = boat.frame()
+    since_s = boat.rec.current_since.get(LAUNCH_SEQ, math.inf)
+    near, stopped_errors, aimed_since, longest_aimed_s = 0, [], None, 0.0
+    points = [pt for pt in boat.rec.track if pt.t_s >= since_s]
+    for pt in points:
+        ne = frame.to_ne(pt.lat_deg, pt.lon_deg)
+        error_deg = abs((pt.heading_deg - p["bearing_deg"] + 180.0) % 360.0 - 180.0)
+        is_near = math.dist(ne, p["launch_ne"]) <= args.launch_tol
+        stopped = is_near and pt.speed_mps <= STOPPED_MPS
+        near += is_near
+        if stopped:
+            stopped_errors.append(error_deg)
+        if stopped and error_deg <= args.bearing_tol:
+            aimed_since = pt.t_s if aimed_since is None else aimed_since
+            longest_aimed_s = max(longest_aimed_s, pt.t_s - aimed_since)
+        else:
+            aimed_since = None
+    return {"seconds": round(points[-1].t_s - since_s, 1) if points else 0.0,
+            "share_near_launch_point": round(near / len(points), 3) if points else 0.0,
+            "share_stopped_near": round(len(stopped_errors) / len(points), 3) if points else 0.0,
+            "best_bow_error_stopped_deg": round(min(stopped_errors), 1) if stopped_errors else None,
+            "longest_aimed_and_stopped_s": round(longest_aimed_s, 2)}
+
+
+def arrival_s(boat: Boat, point_ne: tuple[float, float], after_s: float, radius_m: float) -> float | None:
+    """Vehicle time the track first came within ``radius_m`` of ``point_ne`` after ``after_s``."""
+    frame = boat.frame()
+    for pt in boat.rec.track:
+        if pt.t_s >= after_s and math.dist(frame.to_ne(pt.lat_deg, pt.lon_deg), point_ne) <= radius_m:
+            return pt.t_s
+    return None
+
+
+async def run(argv: list[str] | None = None) -> int:
+    return await fly(NAME, parse_args(argv), rescue)
+
+
+async def rescue(boat: Boat, args: argparse.Namespace) -> int:
+    before = await check_launcher(boat)
+    wp_radius_m = await boat.param_float("WP_RADIUS")
+    await boat.arm()
+    frame = boat.frame()
+    casualty_ne = frame.to_ne(*args.casualty_at) if args.casualty_at else args.casualty
+    p = plan(boat, casualty_ne, args)
+    print(f"{NAME}: casualty {casualty_ne[0]:.0f} m N {casualty_ne[1]:.0f} m E of home; launch from "
+          f"{args.standoff:.0f} m on bearing {p['bearing_deg']:.0f} deg", flush=True)
+
+    try:
+        start_s = await boat.run_raw_mission(p["items"], args.timeout, lambda seq: p["names"][seq],
+                                             {LAUNCH_SEQ: args.aim_timeout})
+    except MissionError as exc:
+        exc.details = {"launched": False, "aiming": aiming_report(boat, p, casualty_ne, args)}
+        raise
+    station_s = arrival_s(boat, p["launch_ne"], boat.rec.reached.get(1, start_s), args.launch_tol)
+    left_station_s = boat.rec.reached.get(4, boat.now_s())
+    report = launch_report(boat, before, casualty_ne, p, start_s, station_s)
+    home_m = await boat.go_home_and_disarm(wp_radius_m, args.timeout)
+    summary = {
+        "casualty_north_m": round(casualty_ne[0], 1), "casualty_east_m": round(casualty_ne[1], 1),
+        "standoff_m": args.standoff, "launch_bearing_planned_deg": round(p["bearing_deg"], 1), **report,
+        "time_on_station_s": None if station_s is None else round(left_station_s - station_s, 1),
+        "mission_time_s": round(boat.now_s() - start_s, 1),
+        "home_distance_at_disarm_m": round(home_m, 2), "wp_radius_m": wp_radius_m,
+    }
+    failures = []
+    if not report["launched"]:
+        failures.append("the launcher did not fire (see the vehicle's messages)")
+    else:
+        if report["distance_error_m"] > args.launch_tol:
+            failures.append(f"launched {report['distance_error_m']} m from the planned point "
+                            f"(tolerance {args.launch_tol} m)")
+        if report["bearing_error_deg"] > args.bearing_tol:
+            failures.append(f"bow {report['bearing_error_deg']} deg off the casualty at launch "
+                            f"(tolerance {args.bearing_tol} deg)")
+        if report["range_to_casualty_m"] > ROPE_RANGE_M:
+            failures.append(f"casualty {report['range_to_casualty_m']} m away: beyond the rope's range")
+    return finish(NAME, summary, failures, args.json, print_summary)
+
+
+def print_summary(s: dict[str, Any]) -> None:
+    print(f"{NAME} summary (vehicle seconds):")
+    if s["launched"]:
+        print(f"  time to casualty (start to launch) {s['time_to_casualty_s']} s, on station "
+              f"{s['time_on_station_s']} s, whole mission {s['mission_time_s']} s")
+        print(f"  launch {s['distance_error_m']} m from the planned point, {s['range_to_casualty_m']} m from "
+              f"the casualty, bow {s['bearing_error_deg']} deg off the casualty (heading {s['heading_deg']})")
+    print(f"  disarmed {s['home_distance_at_disarm_m']} m from home", flush=True)
+
+
+if __name__ == "__main__":
+    sys.exit(asyncio.run(run()))

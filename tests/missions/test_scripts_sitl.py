@@ -1,0 +1,95 @@
+"""The mission scripts as a user runs them: separate processes against ``usv sitl --speedup 10`` in
+moving water (current, wind, waves: :data:`tests.missions.conftest.FLOOD`), each judged on the
+outcome the issue names, from its JSON summary and, for the samples, from the vehicle's own
+durable sample log (``usv samples export``).
+
+Figures measured on this SITL (seed 3, the flood of the conftest; vehicle seconds) where the
+chapter's criteria are not met today are in the xfail reasons: control in a current is issue 14.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import subprocess
+import sys
+from typing import Any
+
+import pytest
+
+from companion.guidance.geo import LocalFrame
+from tests.conftest import REPO_ROOT, usv_command
+from tests.missions.conftest import FloodSitl
+from tests.missions.pymavlink_gcs import PymavlinkGcs
+
+pytestmark = [pytest.mark.integration, pytest.mark.slow]
+
+SCRIPT_TIMEOUT_S = 420.0
+
+
+def run_script(sim: FloodSitl, name: str, *args: str) -> tuple[int, dict[str, Any] | None, str]:
+    """``python missions/<name>.py --url ... --json ARGS``: exit status, JSON summary, stderr."""
+    proc = subprocess.run([sys.executable, str(REPO_ROOT / "missions" / f"{name}.py"), "--url", sim.url,
+                           "--json", *args], cwd=sim.work_dir, env=sim.env, capture_output=True, text=True,
+                          timeout=SCRIPT_TIMEOUT_S)
+    lines = proc.stdout.strip().splitlines()
+    summary = json.loads(lines[-1]) if lines and lines[-1].startswith("{") else None
+    print(f"{name} summary: {json.dumps(summary)}")  # shown by pytest when a test fails
+    return proc.returncode, summary, proc.stdout + proc.stderr
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "control in a current (issue 14): in 0.5 m/s cross current, 5 m/s wind, Hs 0.3 m (seed 3) no launch "
+    "within the 180 s aim limit in 2 of 2 runs: the boat was within 8 m of the launch point 39-42 % of the "
+    "time and stopped there (<= 1.8 m/s) 28-31 %, but never held the bow within 10 deg while stopped for "
+    "USV_LNCH_HOLD_S (3 s; longest 1.25-1.5 s). In 0.3 m/s, 4 m/s, Hs 0.2 m: longest 2.75 s, no launch. "
+    "Calm water: fired 37 s after the start, 5.2 m from the planned point, bow 0.4 deg off the casualty"))
+def test_rescue_launches_within_tolerance_and_tows_home(flood_sitl: FloodSitl, gcs: PymavlinkGcs) -> None:
+    status, s, output = run_script(flood_sitl, "rescue")
+    assert s is not None, output
+    assert s.get("launched"), s
+    assert s["distance_error_m"] <= 8.0 and s["bearing_error_deg"] <= 10.0, s  # the script's tolerances
+    assert s["home_distance_at_disarm_m"] <= s["wp_radius_m"] and not gcs.seen.armed, s
+    assert status == 0 and s["ok"], output
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "control in a current (issue 14): Fig. 13 tracking error (distance from the 2 m commanded circle while "
+    "circling) per point in 0.5 m/s current, 5 m/s wind, Hs 0.3 m: 8.56/2.37/1.31/2.39, 1.43/1.78/1.32/2.22 "
+    "and 1.14/0.84/2.03/2.90 m in 3 runs (limit 1.2 m); the bottles were filled within 2.5 m. In 0.3 m/s, "
+    "4 m/s, Hs 0.2 m the worst point was 0.99-1.69 m over 3 runs (borderline); calm water 0.46-0.50 m"))
+def test_water_sampling_fills_four_bottles_inside_the_circles(flood_sitl: FloodSitl,
+                                                              gcs: PymavlinkGcs) -> None:
+    status, s, output = run_script(flood_sitl, "water_sampling", "--figure", "fig13.png")
+    assert s is not None, output
+    assert (flood_sitl.work_dir / "fig13.png").stat().st_size > 10_000  # the chapter's Fig. 13
+    logged = list(csv.DictReader(io.StringIO(subprocess.run(
+        [*usv_command(), "samples", "export", "--format", "csv", "--state-dir", str(flood_sitl.state_dir)],
+        capture_output=True, text=True, check=True, env=flood_sitl.env).stdout)))
+    assert sorted(int(r["bottle"]) for r in logged) == [1, 2, 3, 4], logged  # the vehicle's own log
+    assert all(float(r["distance_m"]) <= 2.5 for r in logged), logged
+    for point in s["points"]:
+        assert point["sample"] is not None and point["sample"]["full"], s
+        assert point["sample"]["max_distance_m"] <= 2.5, s
+    assert s["home_distance_at_disarm_m"] <= s["wp_radius_m"] and not gcs.seen.armed, s
+    errors = [p["max_track_error_m"] for p in s["points"]]
+    assert max(errors) <= 1.2, f"Fig. 13 tracking errors {errors} m"
+    assert status == 0 and s["ok"], output
+
+
+def test_search_covers_its_polygon(flood_sitl: FloodSitl, gcs: PymavlinkGcs) -> None:
+    home = gcs.seen.home
+    assert home is not None
+    frame = LocalFrame(*home)
+    ring = [frame.to_lat_lon(n, e) for n, e in ((25.0, -25.0), (25.0, 25.0), (60.0, 35.0), (65.0, -20.0))]
+    area = flood_sitl.work_dir / "area.geojson"
+    area.write_text(json.dumps({"type": "Feature", "geometry": {"type": "Polygon", "coordinates": [
+        [[lon, lat] for lat, lon in [*ring, ring[0]]]]}}), encoding="utf-8")
+    status, s, output = run_script(flood_sitl, "search", "--area", str(area), "--sweep-width", "10")
+    assert s is not None, output
+    assert s["coverage"] >= 0.95, s
+    assert s["home_distance_at_disarm_m"] <= s["wp_radius_m"] and not gcs.seen.armed, s
+    assert status == 0 and s["ok"], output
+    assert math.isclose(s["area_m2"], 1987.5, rel_tol=0.02)  # the file's polygon, not the default box
