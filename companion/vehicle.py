@@ -233,7 +233,7 @@ class Vehicle:
         return self.mission.first_seq
 
     def mission_items(self) -> list[MissionItem]:
-        """The stored mission with wire sequence numbers (item 0 is skipped when it is the home placeholder)."""
+        """The stored mission with wire sequence numbers (item 0 may be the home placeholder)."""
         return self.mission.items()
 
     @property
