@@ -20,6 +20,7 @@ import numpy as np
 from companion.estimation.ukf import UKFSettings
 from companion.models.base import DOF_NAMES, LinearInParamsModel
 from companion.models.baselines import LinearizedModel, NomotoSideslipModel
+from companion.models.current import CurrentFit, estimate_currents, water_relative
 from companion.models.evaluate import (
     MODES,
     Evaluation,
@@ -40,6 +41,7 @@ from companion.models.identify import (
 )
 from companion.models.logs import Record
 from companion.models.persistence import HeldErrorBound, held_error_bound
+from companion.models.qlpv import QLPVModel
 
 MODEL_ORDER: tuple[str, ...] = ("linearized", "nomoto_sideslip", "qlpv", "qlpv_oe")
 MODEL_TITLES: dict[str, str] = {"linearized": "Linearized", "nomoto_sideslip": "Nomoto with sideslip",
@@ -57,11 +59,42 @@ ESTIMATORS: tuple[str, ...] = ("iv", "ls")
 squares only.  Every model is fitted with the same smoothing and the same estimator."""
 
 
+CURRENT_CHOICES: tuple[str, ...] = ("auto", "none")
+"""``auto``: when every training log has a heading, estimate each log's current and fit every
+model on water-relative velocities (:mod:`companion.models.current`; a current that is not
+significant is left out, so calm logs fit exactly as over ground); ``none``: over ground."""
+
+
 def identify_models(train: Sequence[Record], *, window_s: float = 2.0, refine: bool = False,
-                    progress: Progress | None = None, estimator: str = "iv") -> dict[str, FitResult]:
-    """Fits of every model on the training records (+ output-error qLPV when ``refine``)."""
+                    progress: Progress | None = None, estimator: str = "iv", current: str = "auto"
+                    ) -> dict[str, FitResult]:
+    """Fits of every model on the training records (+ output-error qLPV when ``refine``), on
+    water-relative velocities when ``current`` is "auto" and the logs allow it."""
     if estimator not in ESTIMATORS:
         raise ValueError(f"estimator {estimator!r}: accepted: {', '.join(ESTIMATORS)}")
+    if current not in CURRENT_CHOICES:
+        raise ValueError(f"current {current!r}: accepted: {', '.join(CURRENT_CHOICES)}")
+    currents: CurrentFit | None = None
+    notes: list[str] = []
+    if current == "auto":
+        no_heading = [r.name for r in train if r.psi_rad is None]
+        if no_heading:
+            notes.append(f"no heading column 'psi' in {', '.join(no_heading)}: fitted over ground "
+                         "(a current in the water would be taken for the hull's dynamics)")
+        else:
+            c0 = fit_qlpv(train, window_s, name="qlpv").model
+            assert isinstance(c0, QLPVModel)
+            currents = estimate_currents(train, c0.thrust_speed_coeff, window_s)
+            train = [water_relative(r, c) for r, c in zip(train, currents.currents, strict=True)]
+    fits = _fit_all(train, window_s, refine, progress, estimator)
+    for fit in fits.values():
+        fit.currents = currents
+        fit.warnings[:0] = notes
+    return fits
+
+
+def _fit_all(train: Sequence[Record], window_s: float, refine: bool, progress: Progress | None,
+             estimator: str) -> dict[str, FitResult]:
     zeros = np.zeros((3, 6))
     fits = {
         "linearized": fit_least_squares(LinearizedModel(zeros, name="linearized"), train, window_s),
