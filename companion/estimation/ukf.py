@@ -54,6 +54,11 @@ DEFAULT_Q_CURRENT = 1e-4
 DEFAULT_P0_CURRENT = 1.0
 """(m/s)^2: before the first turn the current is known to within about 1 m/s (flood currents)."""
 
+CURRENT_GATE_CHI2 = 50.0
+"""The active model uses the estimated current once its squared distance from still water,
+V_c^T P_c^-1 V_c, passes about this (7 standard deviations): below it, an estimate of a few
+cm/s is more likely the model's own error than moving water (chosen on tuning logs)."""
+
 Derivative = Callable[[FloatArray, float, float], FloatArray]
 """``(nu (k,3), throttle, delta_rad) -> nu_dot (k,3)``: the structured model, vectorised."""
 

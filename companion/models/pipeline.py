@@ -18,13 +18,15 @@ from typing import TextIO
 import numpy as np
 
 from companion.estimation.ukf import UKFSettings
+from companion.models.active_prediction import predict_active, predict_plain, run_filter
 from companion.models.base import DOF_NAMES, LinearInParamsModel
 from companion.models.baselines import LinearizedModel, NomotoSideslipModel
-from companion.models.current import CurrentFit, estimate_currents, water_relative
+from companion.models.current import CurrentFit, LogCurrent, estimate_currents, water_relative
 from companion.models.evaluate import (
     MODES,
     Evaluation,
     active_ahead,
+    horizon_sweep,
     j_of,
     j_table,
     reference,
@@ -114,6 +116,25 @@ def _fit_all(train: Sequence[Record], window_s: float, refine: bool, progress: P
 
 
 @dataclass
+class CurrentFilterResult:
+    """The qLPV model with the current-augmented UKF on one validation record."""
+
+    settings: UKFSettings
+    j: dict[str, dict[str, float]]
+    """``j["ahead"]`` (the model alone from this filter's estimate) and ``j["ahead_active"]``."""
+    current: LogCurrent
+    """The current the filter estimated, averaged over the last third of the record."""
+    weight: float
+    """The mean weight the active model gave that current over the last third (0..1)."""
+
+    @property
+    def ratio(self) -> dict[str, float]:
+        """Active over the model alone, 1 s ahead, per DOF (the chapter's Table 4 comparison)."""
+        return {d: self.j["ahead_active"][d] / self.j["ahead"][d] if self.j["ahead"][d] > 0 else float("nan")
+                for d in DOF_NAMES}
+
+
+@dataclass
 class Validation:
     """The J table of one validation record and the evaluations behind it (for plots)."""
 
@@ -129,23 +150,46 @@ class Validation:
     """UKF noise identified from the training logs (:mod:`companion.models.noise_fit`), if given."""
     active_identified: dict[str, float] | None = None
     """J (1 s ahead, delta_nu held) of the qLPV model with ``identified_settings``."""
+    current_filter: CurrentFilterResult | None = None
+    """The qLPV model with the current filter (when the record has a heading and it was asked)."""
+    sweep: list[dict[str, object]] = field(default_factory=list)
+    """Horizon sweep of the qLPV model (:func:`companion.models.evaluate.horizon_sweep`)."""
 
 
 def validate(models: Mapping[str, LinearInParamsModel], rec: Record, *, horizon_s: float = 1.0,
-             settings: UKFSettings | None = None, identified_settings: UKFSettings | None = None
+             settings: UKFSettings | None = None, identified_settings: UKFSettings | None = None,
+             current_settings: UKFSettings | None = None, backend: str = "native", sweep: bool = False
              ) -> Validation:
     """J per model, prediction mode and DOF on ``rec`` (see :mod:`companion.models.evaluate`),
-    the held-model-error bound of the qLPV model, and (given ``identified_settings``) the qLPV
-    model's active 1-s-ahead J with that UKF noise too."""
+    the held-model-error bound of the qLPV model, and for the qLPV model: with
+    ``identified_settings`` its active 1-s-ahead J with that UKF noise, with
+    ``current_settings`` (and a heading in the log) the current filter's figures, and with
+    ``sweep`` the horizon sweep of every filter run.  ``backend``: the UKF implementation."""
     settings = settings or UKFSettings()
-    table, evals = j_table(models, rec, horizon_s, settings)
+    table, evals = j_table(models, rec, horizon_s, settings, backend)
     qlpv = models.get("qlpv")
     bound = held_error_bound(qlpv, rec, horizon_s) if qlpv is not None else None
-    active_id = None
-    if qlpv is not None and identified_settings is not None:
-        idx, active, _ = active_ahead(qlpv, rec, horizon_s, identified_settings)
-        active_id = j_of(active, reference(rec)[idx])
-    return Validation(rec, table, evals, reference_name(rec), settings, bound, identified_settings, active_id)
+    val = Validation(rec, table, evals, reference_name(rec), settings, bound, identified_settings)
+    if qlpv is None:
+        return val
+    if identified_settings is not None:
+        idx, active, _ = active_ahead(qlpv, rec, horizon_s, identified_settings, backend)
+        val.active_identified = j_of(active, reference(rec)[idx])
+    runs = {"chapter": run_filter(qlpv, rec, settings, backend)}
+    if current_settings is not None and rec.psi_rad is not None:
+        run = runs["current"] = run_filter(qlpv, rec, current_settings, backend)
+        meas = reference(rec)
+        idx, plain = predict_plain(qlpv, rec, run, horizon_s)
+        _, active = predict_active(qlpv, rec, run, horizon_s)
+        tail = slice(2 * len(rec) // 3, None)
+        mean = run.current_ne[tail].mean(axis=0)
+        std = float(np.sqrt(run.current_var[tail].mean(axis=0).max()))
+        val.current_filter = CurrentFilterResult(
+            current_settings, {"ahead": j_of(plain, meas[idx]), "ahead_active": j_of(active, meas[idx])},
+            LogCurrent(float(mean[0]), float(mean[1]), std), float(run.weight[tail].mean()))
+    if sweep:
+        val.sweep = horizon_sweep(qlpv, rec, runs)
+    return val
 
 
 def ratios(table: JTable, model: str = "qlpv") -> dict[str, dict[str, float]]:
