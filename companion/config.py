@@ -162,6 +162,14 @@ SETTINGS: tuple[Setting, ...] = (
             "Noise covariances of the active-model UKF: 'chapter' (Eq. 13, the default) or 'identified' "
             "(the [ukf] table 'usv identify' writes into params.toml; falls back to Eq. 13 without it).",
             choices=("chapter", "identified")),
+    Setting("models.ukf", "chapter",
+            "Active-model UKF: 'chapter' (Eq. 5-11 on over-ground velocities, the default) or 'current' "
+            "(water-relative model with the current as two more states, R from the sensor; publishes the "
+            "current estimate on topic 'water_current').", choices=("chapter", "current")),
+    Setting("models.ukf_backend", "native",
+            "Who computes the UKF: 'native' (compiled, a few microseconds per sample) or 'filterpy' "
+            "(the same equations run by filterpy, about 100 times slower; a reference).",
+            choices=("native", "filterpy")),
 )
 
 SETTINGS_BY_KEY: dict[str, Setting] = {s.key: s for s in SETTINGS}

@@ -11,6 +11,7 @@ that publishers and subscribers agree on them in one place.
 from __future__ import annotations
 
 import enum
+import math
 from dataclasses import dataclass, field
 
 
@@ -151,6 +152,33 @@ class ModelError:
 
 
 @dataclass(frozen=True, slots=True)
+class CurrentEstimate:
+    """UKF estimate of the water current (issue 14), earth frame, oceanographic convention.
+
+    ``toward_rad`` is the direction the water flows toward, clockwise from north in [0, 2*pi);
+    the variances are those of the north and east components; ``confidence`` (0..1) is how
+    clearly the estimate stands out of its own uncertainty (moving water rather than the
+    model's error; :func:`companion.models.current_ukf.current_weight`).
+    """
+
+    t_s: float
+    north_mps: float
+    east_mps: float
+    speed_mps: float
+    toward_rad: float
+    north_var_m2ps2: float
+    east_var_m2ps2: float
+    confidence: float
+
+    @classmethod
+    def from_components(cls, t_s: float, north_mps: float, east_mps: float, north_var_m2ps2: float,
+                        east_var_m2ps2: float, confidence: float) -> CurrentEstimate:
+        toward = math.atan2(east_mps, north_mps) % (2.0 * math.pi)
+        return cls(t_s, north_mps, east_mps, math.hypot(north_mps, east_mps), toward, north_var_m2ps2,
+                   east_var_m2ps2, confidence)
+
+
+@dataclass(frozen=True, slots=True)
 class StatusText:
     """A human-readable event for the operator (becomes MAVLink STATUSTEXT)."""
 
@@ -198,6 +226,7 @@ TOPICS: dict[str, type] = {
     "rc_in": RcInput,
     "setpoint": Setpoint,
     "model_error": ModelError,
+    "water_current": CurrentEstimate,
     "status_text": StatusText,
     "vehicle_status": VehicleStatus,
 }

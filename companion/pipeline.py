@@ -22,7 +22,8 @@ the next:
    frame to the servo link.
 
 The bus carries what observers watch (telemetry, logs, payloads, later MQTT): the pipeline
-publishes ``nav``, ``model_error``, ``actuator_cmd`` and ``servo_out``; no stage reads another
+publishes ``nav``, ``model_error`` (and ``water_current`` with the current filter),
+``actuator_cmd`` and ``servo_out``; no stage reads another
 stage's result from the bus.  A stage that raises is logged and counted
 (:attr:`LoopStats.stage_errors`) and the frame is still written.
 
@@ -43,7 +44,7 @@ from companion.actuators.servo import ServoMap, encode_frame
 from companion.bus import Bus
 from companion.clock import Clock
 from companion.control.target import ControlRequest
-from companion.messages import ActuatorCommand, ModelError, NavState, ServoOutputs
+from companion.messages import ActuatorCommand, CurrentEstimate, ModelError, NavState, ServoOutputs
 from companion.transport import ByteLink
 
 log = logging.getLogger(__name__)
@@ -53,7 +54,10 @@ R = TypeVar("R")
 
 
 class Estimator(Protocol):
-    """Stage 2: the model error estimate of one sample (``None``: sample skipped)."""
+    """Stage 2: the model error estimate of one sample (``None``: sample skipped); with the
+    current filter, also the water current (:attr:`current`, else ``None``)."""
+
+    current: CurrentEstimate | None
 
     def step(self, nav: NavState, applied: ActuatorCommand | None) -> ModelError | None: ...
 
@@ -153,6 +157,7 @@ class Pipeline:
         self._t = 0.0
         self._nav = bus.topic("nav", NavState)
         self._model_error = bus.topic("model_error", ModelError)
+        self._current = bus.topic("water_current", CurrentEstimate)
         self._command = bus.topic("actuator_cmd", ActuatorCommand)
 
     def on_sample(self, nav: NavState, ack: str = "") -> ServoOutputs:
@@ -169,6 +174,8 @@ class Pipeline:
                 self._model_error.publish(estimate)
                 if controller is not None:
                     controller.use_model_error(estimate)
+                if self.estimator.current is not None:
+                    self._current.publish(self.estimator.current)
         request = self._stage("modes", None, self.modes, nav)  # 3. the active mode's target
         command: ActuatorCommand | None = None
         if not isinstance(request, ControlRequest):  # HOLD's own command, a seam driver's, or None

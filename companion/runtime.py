@@ -21,7 +21,12 @@ from companion.bus import Bus
 from companion.clock import Clock
 from companion.config import Config
 from companion.control.system import ControlSystem
-from companion.estimation.service import EstimatorStage, load_companion_model, load_companion_ukf_settings
+from companion.estimation.service import (
+    EstimatorStage,
+    load_companion_model,
+    load_companion_ukf_backend,
+    load_companion_ukf_settings,
+)
 from companion.hardware import HardwareIoService, HardwareLinks
 from companion.link.manager import LinkManager
 from companion.mavlink.commands import CommandRegistry
@@ -103,7 +108,7 @@ def build_companion(ctx: Context, hardware: HardwareLinks | None = None,
     payloads.register_commands(commands)
     # the control side: model, estimator, controller families, modes, the vehicle they run on
     model = load_companion_model(config)
-    estimator = EstimatorStage(model, load_companion_ukf_settings(config))
+    estimator = EstimatorStage(model, load_companion_ukf_settings(config), load_companion_ukf_backend(config))
     control = ControlSystem(params, clock, bus, model)
     profile = str(config["vehicle.profile"])
     mission = MissionCursor(MissionStore(config.state_dir() / "missions"), home_placeholder_profile(profile))

@@ -6,8 +6,12 @@ model and the UKF noise the companion flies (params.toml, see
 of Eq. 5-11 on them.  Every navigation sample, :meth:`EstimatorStage.step` takes
 z = [u, v, r] from the NavState and the input last applied (the pipeline's previous
 :class:`~companion.messages.ActuatorCommand`: throttle, nozzle_rad), runs one predict+update and
-returns the :class:`~companion.messages.ModelError` estimate.  A non-finite or out-of-order
-sample is skipped (``None``, logged once), never raised.
+returns the :class:`~companion.messages.ModelError` estimate.  The setting ``models.ukf`` picks
+the filter: "chapter" (Eq. 5-11 as published) or "current" (the current-augmented filter of
+:mod:`companion.models.current_ukf`, which also leaves a
+:class:`~companion.messages.CurrentEstimate` in :attr:`EstimatorStage.current` and needs the
+heading); ``models.ukf_backend`` picks who computes it ("native" or the "filterpy" reference).
+A non-finite or out-of-order sample is skipped (``None``, logged once), never raised.
 """
 
 from __future__ import annotations
@@ -19,7 +23,8 @@ from pathlib import Path
 import numpy as np
 
 from companion.config import Config
-from companion.messages import ActuatorCommand, ModelError, NavState
+from companion.messages import ActuatorCommand, CurrentEstimate, ModelError, NavState
+from companion.models.current_ukf import current_filter_settings, current_mahalanobis, current_weight
 from companion.models.params_file import load_model_params, load_ukf_settings, resolve_params_path
 from companion.models.qlpv import QLPVModel
 from companion.models.ukf import UKF, UKFSettings, make_ukf
@@ -47,15 +52,21 @@ def load_companion_model(config: Config) -> QLPVModel:
 
 
 def load_companion_ukf_settings(config: Config) -> UKFSettings:
-    """The UKF noise the companion uses: the chapter's Eq. 13 unless the setting
-    ``models.ukf_noise`` is "identified" and params.toml has a ``[ukf]`` table."""
-    try:
-        choice = str(config["models.ukf_noise"])
-    except (KeyError, TypeError):
-        choice = "chapter"
-    if choice != "identified":
-        return UKFSettings()
+    """The UKF the companion runs.  ``models.ukf`` "chapter" (default): Eq. 13's noise unless
+    ``models.ukf_noise`` is "identified" and params.toml has a ``[ukf]`` table.  "current": the
+    current-augmented filter with R from the sensor (params.toml's identified ``[ukf]`` R, else
+    the GPS-INS of Table 2) and its own Q
+    (:func:`~companion.models.current_ukf.current_filter_settings`)."""
     path = _params_path(config)
+    if _setting(config, "models.ukf", "chapter") == "current":
+        identified = load_ukf_settings(path)
+        if identified is None:
+            log.info("UKF with current states; R of the GPS-INS datasheet (Table 2)")
+            return current_filter_settings()
+        log.info("UKF with current states; R identified, from %s", path)
+        return current_filter_settings(identified.r_diag)
+    if _setting(config, "models.ukf_noise", "chapter") != "identified":
+        return UKFSettings()
     settings = load_ukf_settings(path)
     if settings is None:
         log.warning("models.ukf_noise is 'identified' but %s has no [ukf] table; using Eq. 13", path)
@@ -64,13 +75,29 @@ def load_companion_ukf_settings(config: Config) -> UKFSettings:
     return settings
 
 
+def load_companion_ukf_backend(config: Config) -> str:
+    """Who computes the filter: "native" (numpy/numba) or "filterpy" (the reference)."""
+    return _setting(config, "models.ukf_backend", "native")
+
+
+def _setting(config: Config, key: str, default: str) -> str:
+    try:
+        return str(config[key])
+    except (KeyError, TypeError):
+        return default
+
+
 class EstimatorStage:
     """Runs the UKF on every navigation sample and returns the model error delta_nu."""
 
-    def __init__(self, model: QLPVModel, settings: UKFSettings | None = None) -> None:
+    def __init__(self, model: QLPVModel, settings: UKFSettings | None = None,
+                 backend: str = "native") -> None:
         self.model = model
         self.settings = settings or UKFSettings()
-        self.ukf: UKF = make_ukf(model, self.settings)
+        self.backend = backend
+        self.ukf: UKF = make_ukf(model, self.settings, backend=backend)
+        self.current: CurrentEstimate | None = None
+        """The water current of the last step (the current filter only; else ``None``)."""
         self._t_last: float | None = None
         self._warned = False
 
@@ -78,16 +105,18 @@ class EstimatorStage:
         """Run a throwaway filter for two samples, so the compiled step is loaded (numba) now
         and not on the first navigation sample, where it stalls the 100 Hz loop for seconds
         (tests and benchmarks on the wall clock call this before feeding samples)."""
-        ukf = make_ukf(self.model, self.settings)
+        ukf = make_ukf(self.model, self.settings, backend=self.backend)
         z = np.zeros(3)
         ukf.initialize(z)
-        ukf.step(z, 0.0, 0.0, 0.01)
+        ukf.step(z, 0.0, 0.0, 0.01, 0.0)
 
     def step(self, nav: NavState, applied: ActuatorCommand | None) -> ModelError | None:
         """One predict+update for ``nav`` with the input ``applied`` since the last sample
         (``None``: nothing applied yet, throttle 0 and nozzle centred)."""
         z = np.array([nav.u_mps, nav.v_mps, nav.r_radps])
-        if not (np.all(np.isfinite(z)) and math.isfinite(nav.t_s)):
+        needs_heading = self.ukf.n == 8
+        if not (np.all(np.isfinite(z)) and math.isfinite(nav.t_s)
+                and (math.isfinite(nav.heading_rad) or not needs_heading)):
             self._warn(f"non-finite navigation sample at t={nav.t_s}")
             return None
         thr = applied.throttle if applied is not None else 0.0
@@ -95,15 +124,19 @@ class EstimatorStage:
         if self._t_last is None or not 0.0 < nav.t_s - self._t_last <= MAX_GAP_S:
             if self._t_last is not None and nav.t_s <= self._t_last:
                 self._warn(f"navigation time went from {self._t_last} to {nav.t_s}; filter restarted")
-            self.ukf = make_ukf(self.model, self.settings)
+            self.ukf = make_ukf(self.model, self.settings, backend=self.backend)
             self.ukf.initialize(z)
         else:
-            self.ukf.step(z, thr, nozzle, nav.t_s - self._t_last)
+            self.ukf.step(z, thr, nozzle, nav.t_s - self._t_last, nav.heading_rad)
         self._t_last = nav.t_s
-        d = self.ukf.x[3:]
-        var = np.diag(self.ukf.P)[3:]
-        return ModelError(nav.t_s, (float(d[0]), float(d[1]), float(d[2])),
-                          (float(var[0]), float(var[1]), float(var[2])), float(self.ukf.nis))
+        x, p = self.ukf.x, self.ukf.P
+        if self.ukf.n == 8:
+            cov = p[6:8, 6:8]
+            self.current = CurrentEstimate.from_components(
+                nav.t_s, float(x[6]), float(x[7]), float(cov[0, 0]), float(cov[1, 1]),
+                current_weight(current_mahalanobis(x[6:8], cov)))
+        return ModelError(nav.t_s, (float(x[3]), float(x[4]), float(x[5])),
+                          (float(p[3, 3]), float(p[4, 4]), float(p[5, 5])), float(self.ukf.nis))
 
     def _warn(self, text: str) -> None:
         if not self._warned:

@@ -127,11 +127,13 @@ class LinearInParamsModel:
         for k in range(h):
             idx = starts + k
             step_dt = (t_s[idx + 1] - t_s[idx])[:, None]
-            nu = self._step_vec(nu, throttle[idx], delta_rad[idx], step_dt, dn)
+            nu = self.step_vec(nu, throttle[idx], delta_rad[idx], step_dt, dn)
         return np.asarray(starts + h, dtype=np.intp), nu
 
-    def _step_vec(self, nu: FloatArray, thr: FloatArray, dl: FloatArray, dt: FloatArray,
-                  dn: FloatArray | None) -> FloatArray:
+    def step_vec(self, nu: FloatArray, thr: FloatArray, dl: FloatArray, dt: FloatArray,
+                 dn: FloatArray | None) -> FloatArray:
+        """One RK4 step of many states at once (rows of ``nu``, per-row ``dt`` of shape (k, 1)),
+        clipped to the envelope: the building block of :meth:`predict_ahead`."""
         k1 = self.derivative(nu, thr, dl, dn)
         k2 = self.derivative(nu + 0.5 * dt * k1, thr, dl, dn)
         k3 = self.derivative(nu + 0.5 * dt * k2, thr, dl, dn)

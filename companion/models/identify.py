@@ -38,6 +38,7 @@ from scipy.optimize import least_squares, lsq_linear, minimize_scalar
 from scipy.signal import savgol_filter
 
 from companion.models.base import DOF_NAMES, FloatArray, LinearInParamsModel
+from companion.models.current import CurrentFit
 from companion.models.logs import Record
 from companion.models.qlpv import FEATURE_SIGNALS, QLPVModel
 
@@ -80,6 +81,8 @@ class FitResult:
     warnings: list[str] = field(default_factory=list)
     cov: list[FloatArray] = field(default_factory=list)
     """Per DOF: covariance of the identified (non-fixed) parameters of that row."""
+    currents: CurrentFit | None = None
+    """The current of every training log, when it was estimated (:mod:`companion.models.current`)."""
 
 
 def smooth(rec: Record, window_s: float = 0.5, polyorder: int = 3) -> tuple[FloatArray, FloatArray]:
@@ -112,11 +115,14 @@ def check_excitation(records: Sequence[Record]) -> None:
                                   "record a sine, zig-zag or random manoeuvre (see usv sim maneuver)")
 
 
-def _regression(model: LinearInParamsModel, records: Sequence[Record], window_s: float
+def _regression(model: LinearInParamsModel, records: Sequence[Record], window_s: float,
+                smoothed: Sequence[tuple[FloatArray, FloatArray]] | None = None
                 ) -> tuple[FloatArray, FloatArray, dict[str, float], int]:
+    """Regressors and derivatives of every record (edges dropped); ``smoothed`` (each record's
+    :func:`smooth`) saves recomputing them when only the model changes."""
     phis, ys, stds = [], [], {}
-    for rec in records:
-        nu_s, nu_dot = smooth(rec, window_s)
+    for k, rec in enumerate(records):
+        nu_s, nu_dot = smoothed[k] if smoothed is not None else smooth(rec, window_s)
         e = _window_samples(rec, window_s) // 2
         sl = slice(e, len(rec) - e)
         phis.append(model.features(nu_s[sl], rec.throttle[sl], rec.delta_rad[sl]))
@@ -194,10 +200,11 @@ def fit_qlpv(records: Sequence[Record], window_s: float = 0.5, name: str = "qLPV
     # T~ >= 0 is enforced by the model (clipped), so allow c up to twice the largest throttle/u.
     c_max = 2.0 * float(np.max(thr[on] / np.maximum(u[on], 0.1))) if np.any(on) else 0.0
     zero = QLPVModel(np.zeros((3, len(QLPVModel.FEATURES))), name=name)
+    smoothed = [smooth(rec, window_s) for rec in records]
 
     def cost(c: float) -> float:
         proto = QLPVModel(zero.theta, name=name, thrust_speed_coeff=c)
-        phi, y, _, win = _regression(proto, records, window_s)
+        phi, y, _, win = _regression(proto, records, window_s, smoothed)
         total = 0.0
         mask = proto.mask_array()
         for j in range(3):

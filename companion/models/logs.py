@@ -2,8 +2,10 @@
 
 CSV with one header line.  Required columns: ``t`` (s, strictly increasing), ``u``, ``v``
 (m/s, body frame), ``r`` (rad/s), ``throttle`` (0..1), ``delta`` (rad, nozzle angle,
-positive to starboard).  Optional: ``u_true``, ``v_true``, ``r_true`` (noiseless truth from
-the simulator, used only for reporting), and any other columns (ignored).  Every problem
+positive to starboard).  Optional: ``psi`` (rad, heading clockwise from north: with it the
+qLPV model is identified on water-relative velocities, a current estimated per log; see
+:mod:`companion.models.current`), ``u_true``, ``v_true``, ``r_true``, ``psi_true`` (noiseless
+truth from the simulator, used only for reporting), and any other columns (ignored).  Every problem
 raises :class:`LogError` naming the file, the column and the row.
 """
 
@@ -21,6 +23,8 @@ from companion.models.base import FloatArray
 
 REQUIRED_COLUMNS: tuple[str, ...] = ("t", "u", "v", "r", "throttle", "delta")
 TRUTH_COLUMNS: tuple[str, ...] = ("u_true", "v_true", "r_true")
+HEADING_COLUMN = "psi"
+HEADING_TRUTH_COLUMN = "psi_true"
 
 
 class LogError(ValueError):
@@ -29,7 +33,8 @@ class LogError(ValueError):
 
 @dataclass(frozen=True)
 class Record:
-    """One manoeuvre: time, measured nu = [u, v, r], inputs, and the truth when known."""
+    """One manoeuvre: time, measured nu = [u, v, r] (over ground), inputs, the heading when the
+    log has it, and the truth when known."""
 
     name: str
     t_s: FloatArray
@@ -37,6 +42,10 @@ class Record:
     throttle: FloatArray
     delta_rad: FloatArray
     nu_true: FloatArray | None = None
+    psi_rad: FloatArray | None = None
+    """Measured heading (rad, clockwise from north), if logged."""
+    psi_true_rad: FloatArray | None = None
+    """True heading (simulator logs), if logged."""
 
     @property
     def dt_s(self) -> float:
@@ -48,7 +57,9 @@ class Record:
     def slice(self, start: int, stop: int | None = None) -> Record:
         sl = slice(start, stop)
         return Record(self.name, self.t_s[sl], self.nu[sl], self.throttle[sl], self.delta_rad[sl],
-                      None if self.nu_true is None else self.nu_true[sl])
+                      None if self.nu_true is None else self.nu_true[sl],
+                      None if self.psi_rad is None else self.psi_rad[sl],
+                      None if self.psi_true_rad is None else self.psi_true_rad[sl])
 
 
 def record_from_columns(columns: dict[str, FloatArray], name: str) -> Record:
@@ -61,7 +72,7 @@ def record_from_columns(columns: dict[str, FloatArray], name: str) -> Record:
             hints.append(f"{c!r}" + (f" (found {close[0]!r}: misnamed?)" if close else ""))
         raise LogError(f"{name}: missing column(s) {', '.join(hints)}; "
                        f"required: {', '.join(REQUIRED_COLUMNS)}")
-    wanted = (*REQUIRED_COLUMNS, *TRUTH_COLUMNS)
+    wanted = (*REQUIRED_COLUMNS, *TRUTH_COLUMNS, HEADING_COLUMN, HEADING_TRUTH_COLUMN)
     cols = {c: np.asarray(columns[c], dtype=float) for c in wanted if c in columns}
     n = cols["t"].size
     if n < 10:
@@ -83,11 +94,16 @@ def record_from_columns(columns: dict[str, FloatArray], name: str) -> Record:
     if np.abs(cols["delta"]).max() > math.pi:
         raise LogError(f"{name}: column 'delta' must be in radians (found |delta| up to "
                        f"{np.abs(cols['delta']).max():g}; degrees?)")
+    for c in (HEADING_COLUMN, HEADING_TRUTH_COLUMN):
+        if c in cols and np.abs(cols[c]).max() > 2.0 * math.pi + 0.1:
+            raise LogError(f"{name}: column {c!r} must be in radians (found |{c}| up to "
+                           f"{np.abs(cols[c]).max():g}; degrees?)")
     truth = None
     if all(c in cols for c in TRUTH_COLUMNS):
         truth = np.column_stack([cols[c] for c in TRUTH_COLUMNS])
     nu = np.column_stack([cols["u"], cols["v"], cols["r"]])
-    return Record(name, cols["t"], nu, thr, cols["delta"], truth)
+    return Record(name, cols["t"], nu, thr, cols["delta"], truth, cols.get(HEADING_COLUMN),
+                  cols.get(HEADING_TRUTH_COLUMN))
 
 
 def read_log(path: Path | str) -> Record:

@@ -17,12 +17,15 @@ from typing import TextIO
 
 import numpy as np
 
+from companion.models.active_prediction import predict_active, predict_plain, run_filter
 from companion.models.base import DOF_NAMES, LinearInParamsModel
 from companion.models.baselines import LinearizedModel, NomotoSideslipModel
+from companion.models.current import CurrentFit, LogCurrent, estimate_currents, water_relative
 from companion.models.evaluate import (
     MODES,
     Evaluation,
     active_ahead,
+    horizon_sweep,
     j_of,
     j_table,
     reference,
@@ -39,6 +42,7 @@ from companion.models.identify import (
 )
 from companion.models.logs import Record
 from companion.models.persistence import HeldErrorBound, held_error_bound
+from companion.models.qlpv import QLPVModel
 from companion.models.ukf import UKFSettings
 
 MODEL_ORDER: tuple[str, ...] = ("linearized", "nomoto_sideslip", "qlpv", "qlpv_oe")
@@ -57,11 +61,42 @@ ESTIMATORS: tuple[str, ...] = ("iv", "ls")
 squares only.  Every model is fitted with the same smoothing and the same estimator."""
 
 
+CURRENT_CHOICES: tuple[str, ...] = ("auto", "none")
+"""``auto``: when every training log has a heading, estimate each log's current and fit every
+model on water-relative velocities (:mod:`companion.models.current`; a current that is not
+significant is left out, so calm logs fit exactly as over ground); ``none``: over ground."""
+
+
 def identify_models(train: Sequence[Record], *, window_s: float = 2.0, refine: bool = False,
-                    progress: Progress | None = None, estimator: str = "iv") -> dict[str, FitResult]:
-    """Fits of every model on the training records (+ output-error qLPV when ``refine``)."""
+                    progress: Progress | None = None, estimator: str = "iv", current: str = "auto"
+                    ) -> dict[str, FitResult]:
+    """Fits of every model on the training records (+ output-error qLPV when ``refine``), on
+    water-relative velocities when ``current`` is "auto" and the logs allow it."""
     if estimator not in ESTIMATORS:
         raise ValueError(f"estimator {estimator!r}: accepted: {', '.join(ESTIMATORS)}")
+    if current not in CURRENT_CHOICES:
+        raise ValueError(f"current {current!r}: accepted: {', '.join(CURRENT_CHOICES)}")
+    currents: CurrentFit | None = None
+    notes: list[str] = []
+    if current == "auto":
+        no_heading = [r.name for r in train if r.psi_rad is None]
+        if no_heading:
+            notes.append(f"no heading column 'psi' in {', '.join(no_heading)}: fitted over ground "
+                         "(a current in the water would be taken for the hull's dynamics)")
+        else:
+            c0 = fit_qlpv(train, window_s, name="qlpv").model
+            assert isinstance(c0, QLPVModel)
+            currents = estimate_currents(train, c0.thrust_speed_coeff, window_s)
+            train = [water_relative(r, c) for r, c in zip(train, currents.currents, strict=True)]
+    fits = _fit_all(train, window_s, refine, progress, estimator)
+    for fit in fits.values():
+        fit.currents = currents
+        fit.warnings[:0] = notes
+    return fits
+
+
+def _fit_all(train: Sequence[Record], window_s: float, refine: bool, progress: Progress | None,
+             estimator: str) -> dict[str, FitResult]:
     zeros = np.zeros((3, 6))
     fits = {
         "linearized": fit_least_squares(LinearizedModel(zeros, name="linearized"), train, window_s),
@@ -81,6 +116,25 @@ def identify_models(train: Sequence[Record], *, window_s: float = 2.0, refine: b
 
 
 @dataclass
+class CurrentFilterResult:
+    """The qLPV model with the current-augmented UKF on one validation record."""
+
+    settings: UKFSettings
+    j: dict[str, dict[str, float]]
+    """``j["ahead"]`` (the model alone from this filter's estimate) and ``j["ahead_active"]``."""
+    current: LogCurrent
+    """The current the filter estimated, averaged over the last third of the record."""
+    weight: float
+    """The mean weight the active model gave that current over the last third (0..1)."""
+
+    @property
+    def ratio(self) -> dict[str, float]:
+        """Active over the model alone, 1 s ahead, per DOF (the chapter's Table 4 comparison)."""
+        return {d: self.j["ahead_active"][d] / self.j["ahead"][d] if self.j["ahead"][d] > 0 else float("nan")
+                for d in DOF_NAMES}
+
+
+@dataclass
 class Validation:
     """The J table of one validation record and the evaluations behind it (for plots)."""
 
@@ -96,23 +150,46 @@ class Validation:
     """UKF noise identified from the training logs (:mod:`companion.models.noise_fit`), if given."""
     active_identified: dict[str, float] | None = None
     """J (1 s ahead, delta_nu held) of the qLPV model with ``identified_settings``."""
+    current_filter: CurrentFilterResult | None = None
+    """The qLPV model with the current filter (when the record has a heading and it was asked)."""
+    sweep: list[dict[str, object]] = field(default_factory=list)
+    """Horizon sweep of the qLPV model (:func:`companion.models.evaluate.horizon_sweep`)."""
 
 
 def validate(models: Mapping[str, LinearInParamsModel], rec: Record, *, horizon_s: float = 1.0,
-             settings: UKFSettings | None = None, identified_settings: UKFSettings | None = None
+             settings: UKFSettings | None = None, identified_settings: UKFSettings | None = None,
+             current_settings: UKFSettings | None = None, backend: str = "native", sweep: bool = False
              ) -> Validation:
     """J per model, prediction mode and DOF on ``rec`` (see :mod:`companion.models.evaluate`),
-    the held-model-error bound of the qLPV model, and (given ``identified_settings``) the qLPV
-    model's active 1-s-ahead J with that UKF noise too."""
+    the held-model-error bound of the qLPV model, and for the qLPV model: with
+    ``identified_settings`` its active 1-s-ahead J with that UKF noise, with
+    ``current_settings`` (and a heading in the log) the current filter's figures, and with
+    ``sweep`` the horizon sweep of every filter run.  ``backend``: the UKF implementation."""
     settings = settings or UKFSettings()
-    table, evals = j_table(models, rec, horizon_s, settings)
+    table, evals = j_table(models, rec, horizon_s, settings, backend)
     qlpv = models.get("qlpv")
     bound = held_error_bound(qlpv, rec, horizon_s) if qlpv is not None else None
-    active_id = None
-    if qlpv is not None and identified_settings is not None:
-        idx, active, _ = active_ahead(qlpv, rec, horizon_s, identified_settings)
-        active_id = j_of(active, reference(rec)[idx])
-    return Validation(rec, table, evals, reference_name(rec), settings, bound, identified_settings, active_id)
+    val = Validation(rec, table, evals, reference_name(rec), settings, bound, identified_settings)
+    if qlpv is None:
+        return val
+    if identified_settings is not None:
+        idx, active, _ = active_ahead(qlpv, rec, horizon_s, identified_settings, backend)
+        val.active_identified = j_of(active, reference(rec)[idx])
+    runs = {"chapter": run_filter(qlpv, rec, settings, backend)}
+    if current_settings is not None and rec.psi_rad is not None:
+        run = runs["current"] = run_filter(qlpv, rec, current_settings, backend)
+        meas = reference(rec)
+        idx, plain = predict_plain(qlpv, rec, run, horizon_s)
+        _, active = predict_active(qlpv, rec, run, horizon_s)
+        tail = slice(2 * len(rec) // 3, None)
+        mean = run.current_ne[tail].mean(axis=0)
+        std = float(np.sqrt(run.current_var[tail].mean(axis=0).max()))
+        val.current_filter = CurrentFilterResult(
+            current_settings, {"ahead": j_of(plain, meas[idx]), "ahead_active": j_of(active, meas[idx])},
+            LogCurrent(float(mean[0]), float(mean[1]), std), float(run.weight[tail].mean()))
+    if sweep:
+        val.sweep = horizon_sweep(qlpv, rec, runs)
+    return val
 
 
 def ratios(table: JTable, model: str = "qlpv") -> dict[str, dict[str, float]]:

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from companion.models.base import FloatArray, LinearInParamsModel
+from companion.models.base import NU_LIMIT, FloatArray, LinearInParamsModel
 
 QLPV_FEATURES: tuple[str, ...] = ("u", "|u|u", "vr", "rr", "Tcos", "v", "r", "|v|v", "|r|r", "ur", "Tsin")
 QLPV_MASK = (
@@ -61,6 +61,20 @@ class QLPVModel(LinearInParamsModel):
         return np.stack(np.broadcast_arrays(
             u, np.abs(u) * u, v * r, r * r, t * np.cos(delta_rad),
             v, r, np.abs(v) * v, np.abs(r) * r, u * r, t * np.sin(delta_rad)), axis=-1)
+
+    def simulate(self, t_s: FloatArray, nu0: FloatArray, throttle: FloatArray, delta_rad: FloatArray,
+                 delta_nu: FloatArray | None = None) -> FloatArray:
+        """:meth:`LinearInParamsModel.simulate` (RK4, inputs held, state clipped), compiled
+        (:func:`companion.models.qlpv_kernel.qlpv_simulate`): the same numbers to rounding."""
+        from companion.models.qlpv_kernel import qlpv_simulate
+
+        def arr(x: FloatArray | None) -> FloatArray:
+            return np.ascontiguousarray(x, dtype=float)
+
+        t = arr(t_s)
+        dn = np.zeros((t.size, 3)) if delta_nu is None else arr(delta_nu)
+        return np.asarray(qlpv_simulate(t, np.array(nu0, dtype=float), arr(throttle), arr(delta_rad),
+                                        arr(self.theta), float(self.thrust_speed_coeff), dn, NU_LIMIT))
 
     # --- the chapter's matrix form, for model-based controllers -------------------------------
     def _p(self, dof: int, name: str) -> float:

@@ -49,6 +49,16 @@ from companion.models.qlpv import QLPVModel
 CHAPTER_Q_DIAG: tuple[float, ...] = tuple(1e-2 * np.array([0.0, 0.0, 0.0, 16.0, 2.0, 1.0]))
 CHAPTER_R_DIAG: tuple[float, ...] = tuple(1e-3 * np.array([16.0, 2.0, 1.0]))
 
+DEFAULT_Q_CURRENT = 1e-4
+"""(m/s)^2/s: a current component wanders about 0.1 m/s in 100 s (a flood's eddies drift over minutes)."""
+DEFAULT_P0_CURRENT = 1.0
+"""(m/s)^2: before the first turn the current is known to within about 1 m/s (flood currents)."""
+
+CURRENT_GATE_CHI2 = 50.0
+"""The active model uses the estimated current once its squared distance from still water,
+V_c^T P_c^-1 V_c, passes about this (7 standard deviations): below it, an estimate of a few
+cm/s is more likely the model's own error than moving water (chosen on tuning logs)."""
+
 Derivative = Callable[[FloatArray, float, float], FloatArray]
 """``(nu (k,3), throttle, delta_rad) -> nu_dot (k,3)``: the structured model, vectorised."""
 
@@ -66,6 +76,16 @@ class UKFSettings:
     """Initial covariance (Eq. 7); empty means diag(R, model-error block of Q * 100)."""
     q_discretization: str = "rate"
     """``"rate"``: Q is a continuous intensity, Q_k = Q dt; ``"per_step"``: Q_k = Q."""
+    estimate_current: bool = False
+    """Augment the state with the earth-frame water current (:mod:`companion.models.current_ukf`)."""
+    q_current: float = DEFAULT_Q_CURRENT
+    """Random-walk intensity of each current component ((m/s)^2/s, read like Q)."""
+    p0_current: float = DEFAULT_P0_CURRENT
+    """Initial variance of each current component ((m/s)^2)."""
+
+    @property
+    def n_states(self) -> int:
+        return 8 if self.estimate_current else 6
 
 
 def merwe_weights(n: int, alpha: float, beta: float, kappa: float) -> tuple[float, FloatArray, FloatArray]:
@@ -79,7 +99,11 @@ def merwe_weights(n: int, alpha: float, beta: float, kappa: float) -> tuple[floa
 
 
 class UKF:
-    """Active-model UKF on x = [nu; delta_nu] with z = nu + noise (chapter Eq. 5-11)."""
+    """Active-model UKF on x = [nu; delta_nu] with z = nu + noise (chapter Eq. 5-11).
+
+    Subclasses may append states after delta_nu (``n`` > 6): the process model carries them
+    unchanged (random walks) and :meth:`update` takes their measurement matrix into account.
+    """
 
     n = 6
     m = 3
@@ -96,7 +120,13 @@ class UKF:
         self._q_rate = s.q_discretization == "rate"
         self._q_dt = -1.0
         self.derivative = derivative
-        self.Q = np.diag(np.asarray(s.q_diag, dtype=float))
+        if s.n_states != self.n:
+            raise ValueError(f"{type(self).__name__} has {self.n} states; these settings describe "
+                             f"{s.n_states} (estimate_current={s.estimate_current})")
+        if s.q_current < 0 or s.p0_current <= 0:
+            raise ValueError("the current's Q must be >= 0 and its initial variance > 0")
+        extra = self.n - 6  # states after delta_nu (the current), random walks
+        self.Q = np.diag(np.concatenate([np.asarray(s.q_diag, dtype=float), np.full(extra, s.q_current)]))
         self.R = np.diag(np.asarray(s.r_diag, dtype=float))
         self.lam, self.Wm, self.Wc = merwe_weights(self.n, s.alpha, s.beta, s.kappa)
         self._c = self.n + self.lam
@@ -107,7 +137,8 @@ class UKF:
         elif s.p0_diag:
             self.P = np.diag(np.asarray(s.p0_diag, dtype=float))
         else:
-            self.P = np.diag(np.concatenate([s.r_diag, 100.0 * np.asarray(s.q_diag[3:])]))
+            self.P = np.diag(np.concatenate([s.r_diag, 100.0 * np.asarray(s.q_diag[3:]),
+                                             np.full(extra, s.p0_current)]))
         self.jitter_count = 0
         self.nis = 0.0
         self._sigmas = np.empty((2 * self.n + 1, self.n))
@@ -145,15 +176,15 @@ class UKF:
         low = self._sqrt(self.P)
         sig = self._sigmas
         sig[0] = self.x
-        np.add(self.x, low.T, out=sig[1:7])
-        np.subtract(self.x, low.T, out=sig[7:])
+        np.add(self.x, low.T, out=sig[1:self.n + 1])
+        np.subtract(self.x, low.T, out=sig[self.n + 1:])
         return sig
 
     def predict(self, throttle: float, delta_rad: float, dt_s: float) -> None:
         """UKF-II/III (Eq. 8-9) with the input held over ``dt_s``."""
         sig = self.sigma_points()
         y = sig.copy()
-        y[:, :3] += dt_s * (self.derivative(sig[:, :3], throttle, delta_rad) + sig[:, 3:])
+        y[:, :3] += dt_s * (self.derivative(sig[:, :3], throttle, delta_rad) + sig[:, 3:6])
         d = y[1:] - y[0]
         mean = y[0] + self._wi * d.sum(axis=0)
         dev = y - mean
@@ -161,8 +192,9 @@ class UKF:
         self.x = mean
         self.P = 0.5 * (p + p.T)
 
-    def update(self, z: FloatArray) -> None:
-        """UKF-IV (Eq. 10-11), exact for the linear measurement z = nu + noise."""
+    def update(self, z: FloatArray, psi_rad: float = 0.0) -> None:
+        """UKF-IV (Eq. 10-11), exact for the linear measurement z = nu + noise (the heading
+        ``psi_rad`` is for filters whose measurement depends on it)."""
         p = self.P
         s = p[:3, :3] + self.R
         s_inv = np.linalg.inv(s)
@@ -175,15 +207,25 @@ class UKF:
         self.P = 0.5 * (p + p.T)
         self.nis = float(innov @ s_inv @ innov)
 
-    def step(self, z: FloatArray, throttle: float, delta_rad: float, dt_s: float) -> FloatArray:
+    def step(self, z: FloatArray, throttle: float, delta_rad: float, dt_s: float, psi_rad: float = 0.0
+             ) -> FloatArray:
         """predict + update; returns the model-error estimate delta_nu."""
         self.predict(throttle, delta_rad, dt_s)
-        self.update(z)
-        return self.x[3:]
+        self.update(z, psi_rad)
+        return self.x[3:6]
 
     @property
     def delta_nu(self) -> FloatArray:
-        return self.x[3:]
+        return self.x[3:6]
+
+    @property
+    def current_ne(self) -> FloatArray | None:
+        """Estimated water current [north, east] (m/s), or None for a filter without it."""
+        return None
+
+    def nu_over_ground(self, psi_rad: float = 0.0) -> FloatArray:
+        """The filtered over-ground velocity nu (what z measures)."""
+        return self.x[:3]
 
 
 class QLPVFastUKF(UKF):
@@ -205,18 +247,40 @@ class QLPVFastUKF(UKF):
         self._wc0 = float(self.Wc[0])
         self._z = np.empty(3)
 
-    def step(self, z: FloatArray, throttle: float, delta_rad: float, dt_s: float) -> FloatArray:
+    def step(self, z: FloatArray, throttle: float, delta_rad: float, dt_s: float, psi_rad: float = 0.0
+             ) -> FloatArray:
         self._z[:] = z
         self.nis, jit = self._kernel(self.x, self.P, self._z, float(throttle), float(delta_rad),
                                      float(dt_s), self._theta, self._c_thrust, self.q_step(dt_s), self.R,
                                      self._wi, self._wc0, self._c)
         self.jitter_count += jit
-        return self.x[3:]
+        return self.x[3:6]
+
+
+BACKENDS: tuple[str, ...] = ("native", "filterpy")
+"""``native``: this module's filters (compiled for the qLPV model); ``filterpy``: the same
+equations run by filterpy's UnscentedKalmanFilter (:mod:`companion.models.filterpy_backend`),
+a slow reference that gives the same numbers."""
 
 
 def make_ukf(model: LinearInParamsModel, settings: UKFSettings | None = None,
-             x0: FloatArray | None = None) -> UKF:
-    """The fastest available filter for ``model`` (compiled for the qLPV model)."""
+             x0: FloatArray | None = None, backend: str = "native") -> UKF:
+    """The filter ``settings`` describe for ``model``: the chapter's (x = [nu; delta_nu]) or, with
+    ``settings.estimate_current``, the current-augmented one; ``backend`` as in :data:`BACKENDS`
+    (native: compiled for the qLPV model)."""
+    settings = settings or UKFSettings()
+    if backend not in BACKENDS:
+        raise ValueError(f"UKF backend {backend!r}; accepted: {', '.join(BACKENDS)}")
+    if backend == "filterpy":
+        from companion.models.filterpy_backend import FilterpyUKF
+
+        return FilterpyUKF(model.derivative, settings, x0)
+    if settings.estimate_current:
+        from companion.models.current_ukf import CurrentUKF, QLPVFastCurrentUKF
+
+        if isinstance(model, QLPVModel):
+            return QLPVFastCurrentUKF(model, settings, x0)
+        return CurrentUKF(model.derivative, settings, x0)
     if isinstance(model, QLPVModel):
         return QLPVFastUKF(model, settings, x0)
     return UKF(model.derivative, settings, x0)

@@ -106,10 +106,11 @@ def _fields(item: MissionItem | object) -> tuple[object, ...]:
 async def test_each_client_downloads_what_it_uploaded_and_progress_counts_real_items(
         state_dir: Path) -> None:
     port = free_port()
-    async with AsyncGcs(port) as gcs, running_vehicle(state_dir, [port]) as ctx:
+    async with AsyncGcs(port) as gcs, running_vehicle(state_dir, [port]) as services:
+        ctx = services.ctx
         await gcs.connect()
         publish_nav(ctx)  # sets home
-        vehicle = ctx.extras["vehicle"]
+        vehicle = services.vehicle
         texts: list[str] = []
         ctx.bus.topic("status_text", StatusText).add_listener(lambda s: texts.append(s.text))
 

@@ -1,13 +1,22 @@
-"""The estimator stage returns the ModelError of a NavState given the ActuatorCommand applied."""
+"""The estimator stage returns the ModelError of a NavState given the ActuatorCommand applied (and
+with the current filter leaves a CurrentEstimate)."""
 
 from __future__ import annotations
 
+import asyncio
 import math
 from pathlib import Path
 
+import pytest
+
 from companion.config import default_config
-from companion.estimation.service import EstimatorStage, load_companion_model, load_companion_ukf_settings
-from companion.messages import ActuatorCommand, NavState
+from companion.estimation.service import (
+    EstimatorStage,
+    load_companion_model,
+    load_companion_ukf_backend,
+    load_companion_ukf_settings,
+)
+from companion.messages import ActuatorCommand, CurrentEstimate, NavState
 
 
 def _nav(t: float, u: float) -> NavState:
@@ -25,3 +34,68 @@ def test_stage_returns_the_model_error(tmp_path: Path) -> None:
     assert err is not None and all(e is not None for e in estimates)
     assert err.delta_nu[0] > 0.05  # the UKF explains the missing deceleration as model error
     assert all(math.isfinite(x) for x in err.delta_nu_var)
+
+
+def _stage(tmp_path: Path, **settings: str) -> EstimatorStage:
+    cfg = default_config().with_overrides({"vehicle.state_dir": str(tmp_path), **settings})
+    return EstimatorStage(load_companion_model(cfg), load_companion_ukf_settings(cfg),
+                          load_companion_ukf_backend(cfg))
+
+
+def test_filterpy_backend_estimates_what_the_native_one_does(tmp_path: Path) -> None:
+    outs = []
+    for backend in ("native", "filterpy"):
+        stage = _stage(tmp_path, **{"models.ukf": "current", "models.ukf_backend": backend})
+        applied = ActuatorCommand(0.0, 0.2, 0.4)
+        err = None
+        for k in range(200):
+            nav = _nav(0.01 * k, 1.5 + 0.1 * math.sin(0.1 * k))
+            err = stage.step(NavState(nav.t_s, 41.0, 123.0, 0.0, 0.02 * k, 0.0, 0.0, 1.5, 0.0, nav.u_mps,
+                                      0.05, 0.02), applied)
+        cur = stage.current
+        assert err is not None and cur is not None
+        outs.append((err.delta_nu, (cur.north_mps, cur.east_mps)))
+    for a, b in zip(outs[0], outs[1], strict=True):
+        assert a == pytest.approx(b, abs=1e-9)
+
+
+def test_chapter_filter_estimates_no_current(tmp_path: Path) -> None:
+    stage = _stage(tmp_path)
+    errs = [stage.step(_nav(0.01 * k, 1.0), None) for k in range(10)]
+    assert errs[-1] is not None
+    assert stage.current is None
+
+
+def _estimate_in_sitl(current: str, seconds: float = 150.0) -> CurrentEstimate:
+    """The shipped default model and the current filter, in lockstep SITL (simulated GPS-INS and
+    its parser), the boat driven open loop: 60 % throttle, nozzle sine +-0.4 rad, 20 s period."""
+    from sim_bridge.sitl import SitlHarness
+
+    async def run() -> CurrentEstimate:
+        cfg = default_config().with_overrides({"models.ukf": "current"})
+        stage = EstimatorStage(load_companion_model(cfg), load_companion_ukf_settings(cfg))
+        async with SitlHarness(seed=3, current=current, full_stack=False) as h:
+            h.drive(lambda nav: ActuatorCommand(nav.t_s, throttle=0.6, ignition_on=True,
+                                                nozzle_rad=0.4 * math.sin(2 * math.pi * nav.t_s / 20.0)))
+            # the estimator sees each sample with the command applied since the previous one
+            pipeline = h.pipeline
+            h.ctx.bus.topic("nav", NavState).add_listener(lambda nav: stage.step(nav, pipeline.last_command))
+            await h.run_for(seconds)
+            est = stage.current
+            assert est is not None
+            return est
+
+    return asyncio.run(run())
+
+@pytest.mark.slow
+def test_current_filter_finds_the_simulated_flood_current() -> None:
+    est = _estimate_in_sitl("0.8,120")
+    assert est.speed_mps == pytest.approx(0.8, abs=0.1)
+    assert abs(math.degrees(est.toward_rad) - 120.0) < 10.0
+    assert est.confidence > 0.9 and max(est.north_var_m2ps2, est.east_var_m2ps2) < 0.05**2
+
+
+@pytest.mark.slow
+def test_current_filter_reports_slack_water_as_slack() -> None:
+    est = _estimate_in_sitl("0,0")
+    assert est.speed_mps < 0.1

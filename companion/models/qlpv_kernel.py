@@ -1,0 +1,64 @@
+"""Compiled (numba) qLPV derivative (Eq. 3-4) and free-run simulation.
+
+The same arithmetic as :meth:`companion.models.qlpv.QLPVModel.derivative` with the regressors
+unrolled (feature order of :data:`companion.models.qlpv.QLPV_FEATURES`), for the 100 Hz UKF
+(:mod:`companion.models.ukf_kernel`) and for the free-run simulations identification runs
+many times (instrumental variables, the current of each log).  Compiled once per machine
+(``cache=True``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def qlpv_derivative(nu: np.ndarray, thr: float, dl: float, theta: np.ndarray, c_thrust: float,
+                    out: np.ndarray) -> None:
+    """``out[:3] = A(nu) nu + B u`` (Eq. 3-4) at one state, thrust T~ = max(thr^2 - c thr u, 0)."""
+    u, v, r = nu[0], nu[1], nu[2]
+    t = thr * thr - c_thrust * thr * u
+    if t < 0.0:
+        t = 0.0
+    tc = t * np.cos(dl)
+    ts = t * np.sin(dl)
+    out[0] = theta[0, 0] * u + theta[0, 1] * abs(u) * u + theta[0, 2] * v * r + theta[0, 3] * r * r \
+        + theta[0, 4] * tc
+    for j in range(1, 3):
+        out[j] = theta[j, 5] * v + theta[j, 6] * r + theta[j, 7] * abs(v) * v + theta[j, 8] * abs(r) * r \
+            + theta[j, 9] * u * r + theta[j, 10] * ts
+
+
+@njit(cache=True)
+def qlpv_simulate(t_s: np.ndarray, nu0: np.ndarray, throttle: np.ndarray, delta_rad: np.ndarray,
+                  theta: np.ndarray, c_thrust: float, delta_nu: np.ndarray, limit: np.ndarray) -> np.ndarray:
+    """Free run: classical RK4 with inputs and ``delta_nu[k]`` held over [t_k, t_k+1), the state
+    clipped to +-``limit`` after every step; returns nu at every ``t_s`` (N, 3)."""
+    n = t_s.size
+    out = np.empty((n, 3))
+    nu = nu0.copy()
+    out[0] = nu
+    k1, k2, k3, k4, tmp = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    for k in range(n - 1):
+        h = t_s[k + 1] - t_s[k]
+        thr, dl = throttle[k], delta_rad[k]
+        qlpv_derivative(nu, thr, dl, theta, c_thrust, k1)
+        for i in range(3):
+            k1[i] += delta_nu[k, i]
+            tmp[i] = nu[i] + 0.5 * h * k1[i]
+        qlpv_derivative(tmp, thr, dl, theta, c_thrust, k2)
+        for i in range(3):
+            k2[i] += delta_nu[k, i]
+            tmp[i] = nu[i] + 0.5 * h * k2[i]
+        qlpv_derivative(tmp, thr, dl, theta, c_thrust, k3)
+        for i in range(3):
+            k3[i] += delta_nu[k, i]
+            tmp[i] = nu[i] + h * k3[i]
+        qlpv_derivative(tmp, thr, dl, theta, c_thrust, k4)
+        for i in range(3):
+            k4[i] += delta_nu[k, i]
+            x = nu[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+            nu[i] = min(max(x, -limit[i]), limit[i])
+        out[k + 1] = nu
+    return out
