@@ -8,7 +8,9 @@ the next:
    (:mod:`companion.sensors.gpsins`);
 2. **estimator** -- the qLPV model + UKF of Eq. 5-11 (:class:`~companion.estimation.service.
    EstimatorStage`): the model error delta_nu, given the actuator command applied since the
-   last sample; handed to the controller (:meth:`ControlSystem.use_model_error`);
+   last sample; handed to the controller (:meth:`ControlSystem.use_model_error`), and with the
+   current-augmented filter the water current (:meth:`ControlSystem.use_current`, which guidance
+   reads as ``control.water_current``);
 3. **modes** -- the active mode (:class:`~companion.modes.manager.ModeManager`, run against the
    vehicle): its target (mission item, guided point, loiter point, pilot sticks) through
    guidance (LOS path following, circle, station keeping), returned as a
@@ -71,6 +73,8 @@ class Controller(Protocol):
     request out as an actuator command."""
 
     def use_model_error(self, estimate: ModelError) -> None: ...
+
+    def use_current(self, estimate: CurrentEstimate) -> None: ...
 
     def apply(self, nav: NavState, request: ControlRequest) -> ActuatorCommand: ...
 
@@ -174,8 +178,11 @@ class Pipeline:
                 self._model_error.publish(estimate)
                 if controller is not None:
                     controller.use_model_error(estimate)
-                if self.estimator.current is not None:
-                    self._current.publish(self.estimator.current)
+                current = self.estimator.current
+                if current is not None:
+                    self._current.publish(current)
+                    if controller is not None:
+                        controller.use_current(current)
         request = self._stage("modes", None, self.modes, nav)  # 3. the active mode's target
         command: ActuatorCommand | None = None
         if not isinstance(request, ControlRequest):  # HOLD's own command, a seam driver's, or None

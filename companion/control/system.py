@@ -31,7 +31,15 @@ from companion.control.params import (
 )
 from companion.control.pid_family import PidController
 from companion.control.target import ControlOutput, ControlRequest, ControlTarget, CourseSpeedController
-from companion.messages import ActuatorCommand, ModelError, NavState, Setpoint, Severity, StatusText
+from companion.messages import (
+    ActuatorCommand,
+    CurrentEstimate,
+    ModelError,
+    NavState,
+    Setpoint,
+    Severity,
+    StatusText,
+)
 from companion.models.qlpv import QLPVModel
 from companion.params import ParamStore
 
@@ -58,6 +66,7 @@ class ControlSystem:
         self.last_output: ControlOutput | None = None
         self.last_target: ControlTarget | None = None
         self._model_error: ModelError | None = None
+        self._current: CurrentEstimate | None = None
         self._warned_no_model = False
         self._setpoint = bus.topic("setpoint", Setpoint)
         self._status = bus.topic("status_text", StatusText)
@@ -71,6 +80,19 @@ class ControlSystem:
     def use_model_error(self, estimate: ModelError) -> None:
         """The estimator's latest model error (chapter Eq. 5), for the active-model law."""
         self._model_error = estimate
+
+    def use_current(self, estimate: CurrentEstimate) -> None:
+        """The estimator's latest water current (the current-augmented filter only)."""
+        self._current = estimate
+
+    @property
+    def water_current(self) -> CurrentEstimate | None:
+        """The latest water-current estimate, ``None`` without one or when it is stale (no
+        estimate for :data:`MODEL_ERROR_STALE_S`): what guidance may use for crab and holding."""
+        est = self._current
+        if est is None or self.clock.now_s() - est.t_s > MODEL_ERROR_STALE_S:
+            return None
+        return est
 
     def _delta_nu(self) -> tuple[float, float, float] | None:
         msg = self._model_error
