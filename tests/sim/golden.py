@@ -14,6 +14,11 @@ change that moves any float of the plant, the noise, the sentence formatting or 
 parser changes a fingerprint.  If a change is *meant* to alter the simulation (new
 physics), regenerate them with ``python -m tests.sim.golden --write`` and say so in the
 commit: every ``usv bench`` figure that flies the simulator will move with it.
+
+Bit-exact floats depend on the platform (numpy's and numba's versions pick different
+implementations of sin, exp, ...; numpy dispatches on the CPU's vector extensions), so the
+file also records :func:`platform_key`, and the test compares only on the same platform
+(elsewhere it is skipped, saying so).
 """
 
 from __future__ import annotations
@@ -21,6 +26,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import platform
 import struct
 import sys
 from dataclasses import dataclass, field
@@ -117,8 +123,26 @@ def fingerprint(name: str) -> str:
     return h.hexdigest()
 
 
+PLATFORM_KEY = "_platform"
+
+
+def platform_key() -> dict[str, str]:
+    """What bit-exact simulator output depends on besides the code."""
+    import numba
+    import numpy
+
+    try:
+        from numpy._core._multiarray_umath import __cpu_features__ as cpu  # numpy >= 2
+    except ImportError:  # pragma: no cover - numpy 1.x
+        from numpy.core._multiarray_umath import __cpu_features__ as cpu
+    simd = "avx512" if cpu.get("AVX512F") else "avx2" if cpu.get("AVX2") else "baseline"
+    return {"python": ".".join(platform.python_version_tuple()[:2]), "machine": platform.machine(),
+            "numpy": numpy.__version__, "numba": numba.__version__, "simd": simd}
+
+
 def main(argv: list[str]) -> int:
-    digests = {name: fingerprint(name) for name in SETTINGS}
+    digests: dict[str, object] = {name: fingerprint(name) for name in SETTINGS}
+    digests[PLATFORM_KEY] = platform_key()
     if "--write" in argv:
         GOLDEN_PATH.write_text(json.dumps(digests, indent=2) + "\n", encoding="utf-8")
         print(f"wrote {GOLDEN_PATH}")
