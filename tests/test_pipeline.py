@@ -4,19 +4,30 @@ servo frame per sample, observers on the bus, and a failing controller sends the
 from __future__ import annotations
 
 from companion.actuators.servo import ServoMap
-from companion.messages import ActuatorCommand, ModelError, ModeNumber, NavState, ServoOutputs, StatusText
+from companion.messages import (
+    ActuatorCommand,
+    CurrentEstimate,
+    ModelError,
+    ModeNumber,
+    NavState,
+    ServoOutputs,
+    StatusText,
+)
 from companion.pipeline import LoopStats, Pipeline, ServoOutput
 from tests.mavlink.helpers import make_ctx, make_vehicle, publish_nav
 
 
 class RecordingEstimator:
-    """Returns a fixed model error and remembers which command it was told was applied."""
+    """Returns a fixed model error (and, like the current filter, a water current) and remembers
+    which command it was told was applied."""
 
     def __init__(self) -> None:
         self.applied: list[ActuatorCommand | None] = []
+        self.current: CurrentEstimate | None = None
 
     def step(self, nav: NavState, applied: ActuatorCommand | None) -> ModelError:
         self.applied.append(applied)
+        self.current = CurrentEstimate.from_components(nav.t_s, 0.0, 0.5, 1e-4, 1e-4, 1.0)
         return ModelError(nav.t_s, (0.1, 0.0, 0.0))
 
 
@@ -39,9 +50,10 @@ def _sample(ctx, pipeline, t_s: float) -> tuple[NavState, ServoOutputs]:  # type
 
 def test_stages_hand_their_results_on_and_observers_see_them() -> None:
     ctx, vehicle, estimator, pipeline = _pipeline()
-    seen: dict[str, list[object]] = {"model_error": [], "actuator_cmd": [], "servo_out": []}
+    seen: dict[str, list[object]] = {"model_error": [], "actuator_cmd": [], "servo_out": [],
+                                     "water_current": []}
     for name, kind in (("model_error", ModelError), ("actuator_cmd", ActuatorCommand),
-                       ("servo_out", ServoOutputs)):
+                       ("servo_out", ServoOutputs), ("water_current", CurrentEstimate)):
         ctx.bus.topic(name, kind).add_listener(seen[name].append)
     _sample(ctx, pipeline, 1.0)  # HOLD: idle, engine off
     assert vehicle.arm() is None and vehicle.set_mode(ModeNumber.CRUISE) is None
@@ -52,6 +64,9 @@ def test_stages_hand_their_results_on_and_observers_see_them() -> None:
     assert estimator.applied == [None, seen["actuator_cmd"][0], seen["actuator_cmd"][1]]
     # the controller flew the active model's law with the estimate the pipeline handed over
     assert vehicle.control._delta_nu() == (0.1, 0.0, 0.0)
+    # and guidance sees the water current the estimator found (observers too)
+    current = vehicle.control.water_current
+    assert current is not None and current.east_mps == 0.5 and seen["water_current"][-1] == current
     assert len(seen["model_error"]) == len(seen["actuator_cmd"]) == len(seen["servo_out"]) == 3
     cmd = seen["actuator_cmd"][2]
     assert isinstance(cmd, ActuatorCommand) and cmd.throttle > 0.0 and cmd.ignition_on
