@@ -5,7 +5,9 @@ A :class:`Service` is anything with ``start()`` (bind sockets, open ports: fast,
 starts services one after another, runs all ``run()`` coroutines in one
 :class:`asyncio.TaskGroup`, and on SIGINT/SIGTERM (or :meth:`Application.request_stop`)
 cancels them in reverse start order, calls ``stop()`` in reverse order, and checks that no
-task is left behind.
+task is left behind.  :meth:`Application.running` is the same life cycle for a caller that
+drives the clock itself (``sim_bridge.sitl.SitlHarness``): services started in order with their
+``run()`` as tasks inside the ``async with``, cancelled and stopped in reverse on leaving it.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ import asyncio
 import contextlib
 import logging
 import signal
+from collections.abc import AsyncIterator
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -96,10 +99,7 @@ class Application:
         try:
             async with asyncio.TaskGroup() as tg:
                 for service in self.services:
-                    await service.start()
-                    started.append(service)
-                    self.started.append(service.name)
-                    log.debug("started %s", service.name)
+                    await self._start(service, started)
                     tasks.append(tg.create_task(service.run(), name=service.name))
                 stop_waiter = tg.create_task(self._stop.wait(), name="stop-request")
                 await stop_waiter
@@ -108,11 +108,44 @@ class Application:
                     with contextlib.suppress(asyncio.CancelledError):
                         await task
         finally:
-            for service in reversed(started):
-                try:
-                    await service.stop()
-                except Exception:  # a failing stop must not prevent the others
-                    log.exception("error while stopping %s", service.name)
-                self.stopped.append(service.name)
+            await self._stop_all(started)
             for sig in installed:
                 loop.remove_signal_handler(sig)
+
+    @contextlib.asynccontextmanager
+    async def running(self) -> AsyncIterator[list[asyncio.Task[None]]]:
+        """Start the services in order with their ``run()`` as tasks (yielded, in start order);
+        on leaving, cancel the tasks and stop the services in reverse order.  A service whose
+        ``run()`` fails is logged; the others go on (the caller, which drives the clock, looks
+        at the tasks and decides when to leave)."""
+        started: list[Service] = []
+        tasks: list[asyncio.Task[None]] = []
+        try:
+            for service in self.services:
+                await self._start(service, started)
+                tasks.append(asyncio.create_task(service.run(), name=service.name))
+            yield tasks
+        finally:
+            for task in reversed(tasks):
+                task.cancel()
+                try:
+                    await task
+                except asyncio.CancelledError:
+                    pass
+                except Exception:
+                    log.exception("service %s failed", task.get_name())
+            await self._stop_all(started)
+
+    async def _start(self, service: Service, started: list[Service]) -> None:
+        await service.start()
+        started.append(service)
+        self.started.append(service.name)
+        log.debug("started %s", service.name)
+
+    async def _stop_all(self, started: list[Service]) -> None:
+        for service in reversed(started):
+            try:
+                await service.stop()
+            except Exception:  # a failing stop must not prevent the others
+                log.exception("error while stopping %s", service.name)
+            self.stopped.append(service.name)

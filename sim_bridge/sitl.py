@@ -33,7 +33,7 @@ from types import TracebackType
 from typing import Any
 
 from companion.actuators.servo import ServoMap
-from companion.app import Context, Service
+from companion.app import Application, Context, Service
 from companion.clock import SimClock
 from companion.config import Config, default_config
 from companion.hardware import HardwareIoService, HardwareLinks
@@ -124,6 +124,7 @@ class SitlHarness:
         self.hardware: HardwareIoService | None = None
         self._lifecycle: list[Service] = []
         self._tasks: list[asyncio.Task[None]] = []
+        self._exit_stack = contextlib.AsyncExitStack()
         self._sim_link: ByteLink | None = None
         self.lockstep: Lockstep | None = None
 
@@ -214,9 +215,7 @@ class SitlHarness:
             self.hardware = HardwareIoService(ctx, self.pipeline, links)
             self._lifecycle = [self.hardware]
         try:
-            for service in self._lifecycle:
-                await service.start()
-                self._tasks.append(asyncio.create_task(service.run(), name=service.name))
+            self._tasks = await self._exit_stack.enter_async_context(Application(self._lifecycle).running())
         except BaseException:
             await self.__aexit__(None, None, None)
             raise
@@ -224,13 +223,7 @@ class SitlHarness:
 
     async def __aexit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
                         tb: TracebackType | None) -> None:
-        for task in reversed(self._tasks):
-            task.cancel()
-            with contextlib.suppress(asyncio.CancelledError, Exception):
-                await task
-        for service in reversed(self._lifecycle):
-            with contextlib.suppress(Exception):
-                await service.stop()
+        await self._exit_stack.aclose()  # the companion's services, in reverse start order
         if self._sim_link is not None:
             await self._sim_link.close()
         if self._tmp is not None:

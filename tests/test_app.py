@@ -63,6 +63,29 @@ async def test_a_crashing_service_stops_the_others_and_is_reported() -> None:
     assert log == ["start link", "cancel link", "stop link"]
 
 
+async def test_running_is_the_same_life_cycle_for_a_caller_that_drives_the_clock() -> None:
+    """What SitlHarness uses: the same order as run(); a crashed run() is visible in its task
+    and the other services go on until the caller leaves."""
+    log: list[str] = []
+
+    class Boom(BaseService):
+        name = "boom"
+
+        async def run(self) -> None:
+            raise RuntimeError("sensor exploded")
+
+    app = Application([Recorder("link", log), Boom(), Recorder("control", log)])
+    async with app.running() as tasks:
+        await asyncio.sleep(0.01)
+        assert [t.get_name() for t in tasks] == ["link", "boom", "control"]
+        assert isinstance(tasks[1].exception(), RuntimeError) and not tasks[0].done()
+    assert log == ["start link", "start control",
+                   "cancel control", "cancel link", "stop control", "stop link"]
+    assert app.stopped == ["control", "boom", "link"]
+    others = [t for t in asyncio.all_tasks() if t is not asyncio.current_task()]
+    assert others == []
+
+
 def _children_of(pid: int) -> list[int]:
     out = subprocess.run(["ps", "-o", "pid=", "--ppid", str(pid)], capture_output=True, text=True)
     return [int(x) for x in out.stdout.split()]
