@@ -17,6 +17,7 @@ from __future__ import annotations
 import logging
 import math
 
+from companion.angles import wrap_2pi
 from companion.bus import Bus
 from companion.clock import Clock
 from companion.control.active_model import ActiveModelController
@@ -130,7 +131,7 @@ class ControlSystem:
         out = fam.update(nav, target, dt, self.mapper.saturation)
         nozzle, throttle, _ = self.mapper.apply(out.nozzle_rad, out.throttle, dt)
         self.last_output, self.last_target = out, target
-        self._setpoint.publish(Setpoint(nav.t_s, target.course_rad % (2 * math.pi), target.speed_mps))
+        self._setpoint.publish(Setpoint(nav.t_s, wrap_2pi(target.course_rad), target.speed_mps))
         return ActuatorCommand(t_s=nav.t_s, nozzle_rad=nozzle, throttle=throttle, ignition_on=ignition_on)
 
     def direct(self, nav: NavState, nozzle_rad: float, throttle: float, *,

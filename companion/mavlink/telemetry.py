@@ -17,6 +17,7 @@ import math
 from collections.abc import Callable, Mapping
 from typing import Any
 
+from companion.angles import wrap_pi
 from companion.app import Context
 from companion.link import streams as s
 from companion.link.dialect import boat_module, mav
@@ -57,10 +58,6 @@ def _fresh(ctx: Context, t_s: float | None) -> bool:
 
 def _nav(ctx: Context) -> NavState | None:
     return ctx.bus.topic("nav", NavState).latest()
-
-
-def _wrap_pi(angle_rad: float) -> float:
-    return (angle_rad + math.pi) % (2 * math.pi) - math.pi
 
 
 def _cdeg_0_360(angle_rad: float) -> int:
@@ -139,7 +136,7 @@ def attitude(ctx: Context, vehicle: Vehicle) -> Any:
     if nav is None:
         return None
     return mav.MAVLink_attitude_message(time_boot_ms(ctx, vehicle), nav.roll_rad, nav.pitch_rad,
-                                        _wrap_pi(nav.heading_rad), 0.0, 0.0, nav.r_radps)
+                                        wrap_pi(nav.heading_rad), 0.0, 0.0, nav.r_radps)
 
 
 def vfr_hud(ctx: Context, vehicle: Vehicle) -> Any:
@@ -196,8 +193,8 @@ def nav_controller_output(ctx: Context, vehicle: Vehicle) -> Any:
     if target is None:
         return None
     return mav.MAVLink_nav_controller_output_message(
-        0.0, 0.0, round(math.degrees(_wrap_pi(target.nav_bearing_rad))),
-        round(math.degrees(_wrap_pi(target.target_bearing_rad))), min(65535, max(0, round(target.wp_dist_m))),
+        0.0, 0.0, round(math.degrees(wrap_pi(target.nav_bearing_rad))),
+        round(math.degrees(wrap_pi(target.target_bearing_rad))), min(65535, max(0, round(target.wp_dist_m))),
         0.0, target.speed_error_mps, target.xtrack_error_m)
 
 

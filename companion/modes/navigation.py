@@ -15,7 +15,7 @@ from typing import Protocol
 
 from companion.control.target import ControlRequest, ControlTarget
 from companion.guidance.circle import CircleTracker
-from companion.guidance.geo import LocalFrame, distance_bearing, wrap_pi
+from companion.guidance.geo import LocalFrame, distance_bearing, wrap_2pi, wrap_pi
 from companion.guidance.los import LosFollower, LosType
 from companion.guidance.params import circle_gains, leg_config, los_gains, station_gains
 from companion.guidance.station import StationKeeper
@@ -177,7 +177,7 @@ class NavMode(Mode):
         bearing = distance_bearing(north - here_n, east - here_e)[1]
         self.nav_target = NavTarget(
             lat_deg=point[0], lon_deg=point[1], speed_mps=max(0.0, target.speed_mps), wp_dist_m=dist_m,
-            target_bearing_rad=bearing, nav_bearing_rad=target.course_rad % (2 * math.pi),
+            target_bearing_rad=bearing, nav_bearing_rad=wrap_2pi(target.course_rad),
             xtrack_error_m=task.cross_track_m,
             speed_error_mps=target.speed_mps - nav.u_mps)
         return ControlRequest.follow(target, ignition_on=host.armed)

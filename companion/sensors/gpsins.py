@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 
+from companion.angles import wrap_2pi
 from companion.bus import Bus
 from companion.clock import Clock
 from companion.messages import ControlSource, EngineState, FixType, NavState, PayloadSensors, RcInput
@@ -86,7 +87,7 @@ class GpsInsParser:
         c, s = math.cos(heading), math.sin(heading)
         nav = NavState(
             t_s=self.clock.now_s(), lat_deg=lat, lon_deg=lon, alt_m=float(f[8]),
-            heading_rad=heading % (2.0 * math.pi), roll_rad=math.radians(float(f[5])),
+            heading_rad=wrap_2pi(heading), roll_rad=math.radians(float(f[5])),
             pitch_rad=math.radians(float(f[4])), vel_north_mps=vn, vel_east_mps=ve,
             u_mps=c * vn + s * ve, v_mps=-s * vn + c * ve, r_radps=-math.radians(self._gyro_z_degps),
             fix_type=FixType.FIX_3D if gnss_ok else FixType.NO_FIX,
