@@ -1,10 +1,12 @@
-"""Geodesy helpers: a local flat-earth north-east (NED without down) frame around an origin.
+"""Geodesy, the product's one module for it: angles, positions and a local flat-earth frame.
 
 For the distances a flood-rescue boat covers on one mission (< 10 km) a tangent-plane
 projection about a fixed origin (home) is standard practice (Fossen, Handbook of Marine Craft
 Hydrodynamics and Motion Control, 2nd ed., section 2.5.2 "flat-Earth navigation"): the error
 against the ellipsoid is below 1 cm per km.  The meridian and prime-vertical radii of the WGS-84
-ellipsoid at the origin latitude scale degrees to metres.
+ellipsoid at the origin latitude scale degrees to metres (:class:`LocalFrame`,
+:func:`distance_m`).  Angles: :func:`wrap_pi`, :func:`wrap_2pi` (defined in
+:mod:`companion.angles`, which the control package imports without guidance, re-exported here).
 """
 
 from __future__ import annotations
@@ -34,6 +36,15 @@ def valid_lat_lon(lat_deg: float, lon_deg: float) -> bool:
     )
 
 
+def _radii_m(lat_deg: float) -> tuple[float, float]:
+    """(meridian radius R_N, prime-vertical radius R_E) of WGS-84 at ``lat_deg``."""
+    s = math.sin(math.radians(lat_deg))
+    den = 1.0 - WGS84_E2 * s * s
+    r_e = WGS84_A_M / math.sqrt(den)
+    r_n = WGS84_A_M * (1.0 - WGS84_E2) / den**1.5
+    return r_n, r_e
+
+
 @dataclass(frozen=True, slots=True)
 class LocalFrame:
     """Tangent plane at (``lat0_deg``, ``lon0_deg``): x north, y east, in metres."""
@@ -48,11 +59,7 @@ class LocalFrame:
     @property
     def _radii_m(self) -> tuple[float, float]:
         """(meridian radius R_N, prime-vertical radius R_E) at the origin latitude."""
-        s = math.sin(math.radians(self.lat0_deg))
-        den = 1.0 - WGS84_E2 * s * s
-        r_e = WGS84_A_M / math.sqrt(den)
-        r_n = WGS84_A_M * (1.0 - WGS84_E2) / den**1.5
-        return r_n, r_e
+        return _radii_m(self.lat0_deg)
 
     def to_ne(self, lat_deg: float, lon_deg: float) -> tuple[float, float]:
         """Geodetic degrees -> (north_m, east_m) relative to the origin."""
@@ -69,6 +76,17 @@ class LocalFrame:
         lon_deg = self.lon0_deg + math.degrees(east_m / (r_e * math.cos(math.radians(self.lat0_deg))))
         lon_deg = (lon_deg + 180.0) % 360.0 - 180.0
         return lat_deg, lon_deg
+
+
+def distance_m(lat1_deg: float, lon1_deg: float, lat2_deg: float, lon2_deg: float) -> float:
+    """Horizontal distance (m) between two nearby positions: the flat-earth projection of
+    :class:`LocalFrame` about their mean latitude (never raises; NaN in, NaN out)."""
+    lat_mid_deg = 0.5 * (lat1_deg + lat2_deg)
+    r_n, r_e = _radii_m(lat_mid_deg)
+    d_lon_deg = (lon2_deg - lon1_deg + 180.0) % 360.0 - 180.0
+    north_m = math.radians(lat2_deg - lat1_deg) * r_n
+    east_m = math.radians(d_lon_deg) * r_e * math.cos(math.radians(lat_mid_deg))
+    return math.hypot(north_m, east_m)
 
 
 def distance_to_segment_m(p_ne: tuple[float, float], a_ne: tuple[float, float],

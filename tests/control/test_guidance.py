@@ -9,7 +9,13 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from companion.guidance.circle import CircleTracker
-from companion.guidance.geo import LocalFrame, distance_bearing, valid_lat_lon, wrap_pi
+from companion.guidance.geo import (
+    LocalFrame,
+    distance_bearing,
+    distance_m,
+    valid_lat_lon,
+    wrap_pi,
+)
 from companion.guidance.los import LosFollower, LosGains, LosType, leg_errors, lookahead
 from companion.guidance.station import StationKeeper
 from companion.guidance.waypoints import LegConfig, LegNavigator
@@ -179,3 +185,12 @@ def test_station_keeping_points_into_current_and_stays_close() -> None:
     # bow into the current (current towards the south-east-ish: bow points north-west-ish)
     into = math.atan2(-current[1], -current[0])
     assert abs(wrap_pi(keeper.heading_rad - into)) < math.radians(20)
+
+
+def test_distance_between_positions_is_the_local_frame_distance() -> None:
+    frame = LocalFrame(41.77, 123.43)
+    lat, lon = frame.to_lat_lon(30.0, -40.0)
+    assert distance_m(41.77, 123.43, lat, lon) == pytest.approx(50.0, abs=0.01)
+    assert distance_m(lat, lon, 41.77, 123.43) == pytest.approx(50.0, abs=0.01)
+    assert distance_m(0.0, 179.99999, 0.0, -179.99999) == pytest.approx(2.2, abs=0.1)  # across the date line
+

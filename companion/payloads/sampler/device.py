@@ -24,8 +24,8 @@ import math
 from dataclasses import dataclass, field
 
 from companion.app import Context
+from companion.guidance.geo import distance_m
 from companion.messages import NavState
-from companion.payloads.geo import distance_m
 from companion.payloads.samplelog import SampleLog, SampleRecord
 from companion.payloads.topics import BOTTLE_COUNT, PAYLOAD_SENSORS_TOPIC, PayloadOutputs, PayloadSensors
 
