@@ -6,18 +6,20 @@ Hydrodynamics and Motion Control, 2nd ed., section 2.5.2 "flat-Earth navigation"
 against the ellipsoid is below 1 cm per km.  The meridian and prime-vertical radii of the WGS-84
 ellipsoid at the origin latitude scale degrees to metres (:class:`LocalFrame`,
 :func:`distance_m`).  Angles: :func:`wrap_pi`, :func:`wrap_2pi` (defined in
-:mod:`companion.angles`, which the control package imports without guidance, re-exported here).
+:mod:`companion.angles`, which the control package imports without guidance, re-exported here);
+positions: :func:`lat_lon_problem`.
 """
 
 from __future__ import annotations
 
+import enum
 import math
 from dataclasses import dataclass
 
 from companion.angles import wrap_2pi, wrap_pi
 
-__all__ = ["WGS84_A_M", "WGS84_E2", "LocalFrame", "distance_bearing", "distance_to_segment_m",
-           "valid_lat_lon", "wrap_2pi", "wrap_pi"]
+__all__ = ["WGS84_A_M", "WGS84_E2", "Coordinate", "LocalFrame", "PositionProblem", "distance_bearing",
+           "distance_m", "distance_to_segment_m", "lat_lon_problem", "valid_lat_lon", "wrap_2pi", "wrap_pi"]
 
 WGS84_A_M = 6378137.0
 """WGS-84 semi-major axis."""
@@ -25,15 +27,39 @@ WGS84_E2 = 6.69437999014e-3
 """WGS-84 first eccentricity squared."""
 
 
+class Coordinate(enum.Enum):
+    """Which part of a position is wrong (mission uploads answer with a per-field error code)."""
+
+    LATITUDE = "latitude"
+    LONGITUDE = "longitude"
+    BOTH = "position"
+
+
+@dataclass(frozen=True, slots=True)
+class PositionProblem:
+    coordinate: Coordinate
+    text: str
+
+
+def lat_lon_problem(lat_deg: float, lon_deg: float, *,
+                    zero_is_missing: bool = False) -> PositionProblem | None:
+    """Why (``lat_deg``, ``lon_deg``) is not a position on the globe, or ``None``: the one
+    validator of positions from ground stations, missions and sensors.
+
+    ``zero_is_missing``: also refuse exactly 0, 0, which clients send for "no coordinates".
+    """
+    if not (math.isfinite(lat_deg) and -90.0 <= lat_deg <= 90.0):
+        return PositionProblem(Coordinate.LATITUDE, f"latitude {lat_deg:g} outside [-90, 90]")
+    if not (math.isfinite(lon_deg) and -180.0 <= lon_deg <= 180.0):
+        return PositionProblem(Coordinate.LONGITUDE, f"longitude {lon_deg:g} outside [-180, 180]")
+    if zero_is_missing and lat_deg == 0.0 and lon_deg == 0.0:
+        return PositionProblem(Coordinate.BOTH, "position 0,0 (missing coordinates)")
+    return None
+
 
 def valid_lat_lon(lat_deg: float, lon_deg: float) -> bool:
     """True when both are finite and inside [-90, 90] x [-180, 180]."""
-    return (
-        math.isfinite(lat_deg)
-        and math.isfinite(lon_deg)
-        and -90.0 <= lat_deg <= 90.0
-        and -180.0 <= lon_deg <= 180.0
-    )
+    return lat_lon_problem(lat_deg, lon_deg) is None
 
 
 def _radii_m(lat_deg: float) -> tuple[float, float]:

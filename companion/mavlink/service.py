@@ -17,6 +17,7 @@ from typing import Any
 from companion.actuators.servo import ServoMap
 from companion.app import BaseService, Context
 from companion.clock import periodic
+from companion.guidance.geo import lat_lon_problem
 from companion.link import streams
 from companion.link.dialect import mav
 from companion.link.endpoint import Link
@@ -158,7 +159,7 @@ class MavlinkService(BaseService):
         if msg.type_mask & mav.POSITION_TARGET_TYPEMASK_X_IGNORE:
             return  # velocity-only targets are not supported on this boat
         lat_deg, lon_deg = msg.lat_int / 1e7, msg.lon_int / 1e7
-        if not (-90 <= lat_deg <= 90 and -180 <= lon_deg <= 180) or (lat_deg == 0 and lon_deg == 0):
+        if lat_lon_problem(lat_deg, lon_deg, zero_is_missing=True) is not None:
             self.vehicle.status("Position target refused: invalid position", Severity.WARNING)
             return
         speed = None

@@ -14,6 +14,7 @@ from typing import Any
 from companion.actuators.overrides import N_RELAYS, override_refusal, relay_channel
 from companion.actuators.servo import N_CHANNELS, ServoMap
 from companion.clock import Clock
+from companion.guidance.geo import lat_lon_problem
 from companion.link.dialect import mav
 from companion.link.endpoint import Link
 from companion.mavlink import identity
@@ -45,16 +46,6 @@ def _reply(cmd: CommandRequest, msg: Any) -> None:
     link = cmd.link
     if isinstance(link, Link):
         link.send(msg)
-
-
-def _valid_lat_lon(lat_deg: float, lon_deg: float) -> str | None:
-    if not (math.isfinite(lat_deg) and -90 <= lat_deg <= 90):
-        return f"latitude {lat_deg:g} is not valid"
-    if not (math.isfinite(lon_deg) and -180 <= lon_deg <= 180):
-        return f"longitude {lon_deg:g} is not valid"
-    if lat_deg == 0 and lon_deg == 0:
-        return "position 0,0 (missing coordinates)"
-    return None
 
 
 def _speed_or_none(speed_mps: float, what: str) -> tuple[float | None, str | None]:
@@ -139,9 +130,8 @@ class VehicleCommands:
     async def do_reposition(self, cmd: CommandRequest) -> CommandResult:
         vehicle = self.vehicle
         lat_deg, lon_deg = cmd.lat_deg, cmd.lon_deg
-        problem = _valid_lat_lon(lat_deg, lon_deg)
-        if problem:
-            return CommandResult.denied(f"Reposition refused: {problem}")
+        if (bad := lat_lon_problem(lat_deg, lon_deg, zero_is_missing=True)) is not None:
+            return CommandResult.denied(f"Reposition refused: {bad.text}")
         speed, problem = _speed_or_none(cmd.param1, "Reposition refused")
         if problem:
             return CommandResult.denied(problem)
@@ -179,9 +169,8 @@ class VehicleCommands:
                 return CommandResult.denied("Set home refused: no position estimate")
             reason = vehicle.set_home(nav.lat_deg, nav.lon_deg, nav.alt_m)
         else:
-            problem = _valid_lat_lon(cmd.lat_deg, cmd.lon_deg)
-            if problem:
-                return CommandResult.denied(f"Set home refused: {problem}")
+            if (bad := lat_lon_problem(cmd.lat_deg, cmd.lon_deg, zero_is_missing=True)) is not None:
+                return CommandResult.denied(f"Set home refused: {bad.text}")
             alt = cmd.param7 if math.isfinite(cmd.param7) else 0.0
             reason = vehicle.set_home(cmd.lat_deg, cmd.lon_deg, alt)
         return CommandResult.accepted() if reason is None else CommandResult.denied(reason)

@@ -23,6 +23,7 @@ from collections.abc import Callable, Mapping
 from companion.angles import wrap_2pi
 from companion.bus import Bus
 from companion.clock import Clock
+from companion.guidance.geo import valid_lat_lon
 from companion.messages import ControlSource, EngineState, FixType, NavState, PayloadSensors, RcInput
 from companion.sensors.nmea import LineFramer
 
@@ -80,7 +81,7 @@ class GpsInsParser:
             raise ValueError("heading out of range")
         ve, vn = float(f[9]), float(f[10])
         lat, lon = float(f[6]), float(f[7])
-        if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
+        if not valid_lat_lon(lat, lon):
             raise ValueError("position out of range")
         status = int(f[15], 16)
         gnss_ok = bool(status & 0x01)
