@@ -19,7 +19,7 @@ import math
 
 from companion.angles import wrap_2pi
 from companion.bus import Bus
-from companion.clock import Clock
+from companion.clock import Clock, StepTimer
 from companion.control.active_model import ActiveModelController
 from companion.control.actuator import ActuatorMapper
 from companion.control.params import (
@@ -38,9 +38,6 @@ from companion.params import ParamStore
 
 log = logging.getLogger(__name__)
 
-DT_MIN_S, DT_MAX_S = 0.001, 0.1
-"""The step uses sensor time; gaps are clamped so a late sample cannot kick the integrators."""
-
 MODEL_ERROR_STALE_S = 0.5
 """An estimate older than this (clock time) is not used by the active-model law."""
 
@@ -55,7 +52,8 @@ class ControlSystem:
         self._families: dict[int, CourseSpeedController] = {}
         self._active_type: int | None = None
         self.mapper = ActuatorMapper(actuator_limits(params))
-        self._last_t_s: float | None = None
+        self._timer = StepTimer()
+        """The step uses sensor time, clamped (shared by :meth:`step` and :meth:`direct`)."""
         self.last_output: ControlOutput | None = None
         self.last_target: ControlTarget | None = None
         self._model_error: ModelError | None = None
@@ -113,14 +111,12 @@ class ControlSystem:
 
     def reset(self) -> None:
         """Forget timing and integrators (a mode was entered)."""
-        self._last_t_s = None
+        self._timer.reset()
         self._active_type = None
 
     def step(self, nav: NavState, target: ControlTarget, *, ignition_on: bool = True) -> ActuatorCommand:
         """Run one control period for ``target``; the actuator command for the servo frame."""
-        dt = 0.01 if self._last_t_s is None else nav.t_s - self._last_t_s
-        dt = min(DT_MAX_S, max(DT_MIN_S, dt))
-        self._last_t_s = nav.t_s
+        dt = self._timer.step(nav.t_s)
         kind = self.family_type(target)
         fam = self._family(kind)
         if kind != self._active_type:
@@ -137,8 +133,7 @@ class ControlSystem:
     def direct(self, nav: NavState, nozzle_rad: float, throttle: float, *,
                ignition_on: bool = True) -> ActuatorCommand:
         """Pass a nozzle angle and throttle (MANUAL) through the actuator limits and slew rates."""
-        dt = 0.01 if self._last_t_s is None else min(DT_MAX_S, max(DT_MIN_S, nav.t_s - self._last_t_s))
-        self._last_t_s = nav.t_s
+        dt = self._timer.step(nav.t_s)
         if not (math.isfinite(nozzle_rad) and math.isfinite(throttle)):
             nozzle_rad, throttle = 0.0, 0.0
         nozzle, thr, _ = self.mapper.apply(nozzle_rad, throttle, dt)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from typing import Protocol
 
+from companion.clock import StepTimer
 from companion.control.target import ControlRequest, ControlTarget
 from companion.guidance.circle import CircleTracker
 from companion.guidance.geo import LocalFrame, distance_bearing, wrap_2pi, wrap_pi
@@ -151,19 +152,18 @@ class NavMode(Mode):
     def __init__(self) -> None:
         super().__init__()
         self.task: Task | None = None
-        self._last_t_s: float | None = None
+        self._timer = StepTimer()
 
     def requirements(self, host: ModeHost) -> str | None:
         return requires_position(host)
 
     def enter(self, host: ModeHost) -> None:
-        self._last_t_s = None
+        self._timer.reset()
         host.control.reset()
 
     def dt(self, nav: NavState) -> float:
-        dt = 0.01 if self._last_t_s is None else min(0.1, max(0.001, nav.t_s - self._last_t_s))
-        self._last_t_s = nav.t_s
-        return dt
+        """This period's step (sensor time, clamped)."""
+        return self._timer.step(nav.t_s)
 
     def run_task(self, host: ModeHost, nav: NavState, task: Task,
                  dt_s: float | None = None) -> ControlRequest:
