@@ -43,7 +43,16 @@ from companion.actuators.servo import ServoMap, encode_frame
 from companion.bus import Bus
 from companion.clock import Clock
 from companion.control.target import ControlRequest
-from companion.messages import ActuatorCommand, ModelError, NavState, ServoOutputs
+from companion.messages import (
+    ACTUATOR_CMD_TOPIC,
+    MODEL_ERROR_TOPIC,
+    NAV_TOPIC,
+    SERVO_OUT_TOPIC,
+    ActuatorCommand,
+    ModelError,
+    NavState,
+    ServoOutputs,
+)
 from companion.transport import ByteLink
 
 log = logging.getLogger(__name__)
@@ -112,7 +121,7 @@ class ServoOutput:
         self.stats = stats
         self.link: ByteLink | None = None
         """Where frames go (the servo controller); set by the hardware service while it runs."""
-        self._servo_out = bus.topic("servo_out", ServoOutputs)
+        self._servo_out = bus.topic(SERVO_OUT_TOPIC)
 
     def write(self, cmd: ActuatorCommand | None, ack: str = "") -> ServoOutputs:
         """Build, publish and send the frame for ``cmd`` (``None``: nothing commanded yet, which
@@ -151,9 +160,9 @@ class Pipeline:
         """The command in force: the last one the modes stage returned."""
         self.last_sample_s: float | None = None
         self._t = 0.0
-        self._nav = bus.topic("nav", NavState)
-        self._model_error = bus.topic("model_error", ModelError)
-        self._command = bus.topic("actuator_cmd", ActuatorCommand)
+        self._nav = bus.topic(NAV_TOPIC)
+        self._model_error = bus.topic(MODEL_ERROR_TOPIC)
+        self._command = bus.topic(ACTUATOR_CMD_TOPIC)
 
     def on_sample(self, nav: NavState, ack: str = "") -> ServoOutputs:
         """Run the pipeline for one navigation sample and write its servo frame."""

@@ -20,6 +20,9 @@ from companion.control.manual_input import PilotInput, pilot_input
 from companion.control.system import ControlSystem
 from companion.guidance.geo import lat_lon_problem
 from companion.messages import (
+    NAV_TOPIC,
+    STATUS_TEXT_TOPIC,
+    VEHICLE_STATUS_TOPIC,
     FixType,
     GuidedTarget,
     Home,
@@ -84,9 +87,9 @@ class Vehicle:
         ]
         self.home_listeners: list[Callable[[Home], None]] = []
         self.status_listeners: list[Callable[[], None]] = []
-        self._nav = ctx.bus.topic("nav", NavState)
-        self._status_text = ctx.bus.topic("status_text", StatusText)
-        self._vehicle_status = ctx.bus.topic("vehicle_status", VehicleStatus)
+        self._nav = ctx.bus.topic(NAV_TOPIC)
+        self._status_text = ctx.bus.topic(STATUS_TEXT_TOPIC)
+        self._vehicle_status = ctx.bus.topic(VEHICLE_STATUS_TOPIC)
         mission.changed_listeners.append(self._notify_status_listeners)
         modes.add_listener(self._on_mode_changed)
         self._nav.add_listener(self._on_nav)

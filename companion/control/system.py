@@ -32,7 +32,16 @@ from companion.control.params import (
 )
 from companion.control.pid_family import PidController
 from companion.control.target import ControlOutput, ControlRequest, ControlTarget, CourseSpeedController
-from companion.messages import ActuatorCommand, ModelError, NavState, Setpoint, Severity, StatusText
+from companion.messages import (
+    SETPOINT_TOPIC,
+    STATUS_TEXT_TOPIC,
+    ActuatorCommand,
+    ModelError,
+    NavState,
+    Setpoint,
+    Severity,
+    StatusText,
+)
 from companion.models.qlpv import QLPVModel
 from companion.params import ParamStore
 
@@ -58,8 +67,8 @@ class ControlSystem:
         self.last_target: ControlTarget | None = None
         self._model_error: ModelError | None = None
         self._warned_no_model = False
-        self._setpoint = bus.topic("setpoint", Setpoint)
-        self._status = bus.topic("status_text", StatusText)
+        self._setpoint = bus.topic(SETPOINT_TOPIC)
+        self._status = bus.topic(STATUS_TEXT_TOPIC)
         params.add_listener(self._on_param)
 
     def _on_param(self, name: str, value: float) -> None:

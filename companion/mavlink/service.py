@@ -31,7 +31,7 @@ from companion.mavlink.mission_service import MissionService
 from companion.mavlink.param_service import ParamService
 from companion.mavlink.telemetry import Telemetry
 from companion.mavlink.vehicle_commands import VehicleCommands
-from companion.messages import GuidedTarget, ModeNumber, Severity, StatusText
+from companion.messages import STATUS_TEXT_TOPIC, GuidedTarget, ModeNumber, Severity, StatusText
 from companion.mission.validate import MissionValidator
 from companion.vehicle import Vehicle
 
@@ -76,7 +76,7 @@ class MavlinkService(BaseService):
 
     async def start(self) -> None:
         ctx, vehicle = self.ctx, self.vehicle
-        ctx.bus.topic("status_text", StatusText).add_listener(self._on_status_text)
+        ctx.bus.topic(STATUS_TEXT_TOPIC).add_listener(self._on_status_text)
         vehicle.start_modes()
         vehicle.status(identity.boot_banner())
         profile = "ArduRover-compatible modes" if vehicle.profile == "ardurover" else "generic autopilot"

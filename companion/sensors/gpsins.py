@@ -24,7 +24,17 @@ from companion.angles import wrap_2pi
 from companion.bus import Bus
 from companion.clock import Clock
 from companion.guidance.geo import valid_lat_lon
-from companion.messages import ControlSource, EngineState, FixType, NavState, PayloadSensors, RcInput
+from companion.messages import (
+    ENGINE_TOPIC,
+    PAYLOAD_SENSORS_TOPIC,
+    RC_IN_TOPIC,
+    ControlSource,
+    EngineState,
+    FixType,
+    NavState,
+    PayloadSensors,
+    RcInput,
+)
 from companion.sensors.nmea import LineFramer
 
 NavCallback = Callable[[NavState, str], object]
@@ -42,9 +52,9 @@ class GpsInsParser:
         self.field_errors = 0
         self.nav_samples = 0
         self._gyro_z_degps = 0.0
-        self._engine = bus.topic("engine", EngineState)
-        self._rc = bus.topic("rc_in", RcInput)
-        self._payload = bus.topic("payload_sensors", PayloadSensors)
+        self._engine = bus.topic(ENGINE_TOPIC)
+        self._rc = bus.topic(RC_IN_TOPIC)
+        self._payload = bus.topic(PAYLOAD_SENSORS_TOPIC)
         self._payload_type = PayloadSensors
         self._handlers: dict[str, Callable[[list[str]], None]] = {
             "GPFPD": self._gpfpd, "GTIMU": self._gtimu, "PUSVE": self._pusve,

@@ -13,7 +13,7 @@ from companion.bus import Bus
 from companion.clock import SimClock
 from companion.config import default_config
 from companion.control.system import ControlSystem
-from companion.messages import FixType, NavState
+from companion.messages import NAV_TOPIC, FixType, NavState
 from companion.mission.cursor import MissionCursor
 from companion.mission.store import MissionStore
 from companion.modes.base import Mode
@@ -54,7 +54,7 @@ def nav_sample(t_s: float, *, lat_deg: float = HOME_LAT_DEG, lon_deg: float = HO
 def publish_nav(ctx: Context, **kwargs: object) -> NavState:
     """A nav sample on the bus of a plain context (what the vehicle observes)."""
     nav = nav_sample(ctx.clock.now_s(), **kwargs)  # type: ignore[arg-type]
-    ctx.bus.topic("nav", NavState).publish(nav)
+    ctx.bus.topic(NAV_TOPIC).publish(nav)
     return nav
 
 

@@ -9,10 +9,10 @@ in :mod:`.mavlink` (imported when a vehicle is built: reading the parameter tabl
 
 from __future__ import annotations
 
+from companion.messages import BOTTLE_COUNT
 from companion.payloads.registry import Payload, PayloadDef, PayloadEnv
 from companion.payloads.sampler.device import BottleState, SampleJob, SampleRequest, WaterSampler
 from companion.payloads.sampler.params import PARAMS
-from companion.payloads.topics import BOTTLE_COUNT
 
 __all__ = ["PARAMS", "PAYLOAD", "BottleState", "SampleJob", "SampleRequest", "WaterSampler", "build"]
 
