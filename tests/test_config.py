@@ -27,6 +27,8 @@ def test_defaults_work_for_sitl() -> None:
         ({"vehicle": {"profile": "px4"}},
          "vehicle.profile: invalid value 'px4'; accepted: one of 'ardurover'"),
         ({"links": {"udp_targets": ["localhost"]}}, "links.udp_targets: invalid entry 'localhost'"),
+        ({"links": {"tcp_listen": "127.0.0.1:70000"}}, r"links.tcp_listen: .*port must be 1..65535"),
+        ({"links": {"serial": ["/dev/ttyUSB1:fast"]}}, "links.serial: .*baud must be a positive integer"),
         ({"sim": {"speedup": float("nan")}}, "sim.speedup: invalid value nan"),
         ({"params": {"USV_LOOP_HZ": 1000}}, r"params.USV_LOOP_HZ: 1000 is out of range \[10, 200\] Hz"),
         ({"params": {"NOT_A_PARAM": 1}}, "unknown parameter params.NOT_A_PARAM"),
