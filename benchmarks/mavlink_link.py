@@ -82,7 +82,7 @@ async def _bench(quick: bool) -> dict[str, Any]:
             async with AsyncGcs(ports[0]) as g0, AsyncGcs(ports[1]) as g1, AsyncGcs(ports[2]) as g2:
                 for g in (g0, g1, g2):
                     await g.connect(10.0)
-                    for msg_id in (30, 33):
+                    for msg_id in (mav.MAVLINK_MSG_ID_ATTITUDE, mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT):
                         await g.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 20_000)
                 n = 200 if quick else 2000
                 latencies_ms: list[float] = []

@@ -6,12 +6,16 @@ message type (PX4 calls this uORB).  Readers either poll :meth:`Topic.latest`, a
 the next publication, or register a synchronous listener (used on the 100 Hz path so
 that a lockstep simulation step runs the whole estimator-controller chain
 deterministically before the servo outputs are answered).
+
+A topic is named by a :class:`TopicKey`, its name paired with its message type; the product's
+keys are constants next to the message types in :mod:`companion.messages` (``NAV_TOPIC``, ...).
 """
 
 from __future__ import annotations
 
 import asyncio
 from collections.abc import AsyncIterator, Callable
+from dataclasses import dataclass
 from typing import Any, Generic, TypeVar
 
 T = TypeVar("T")
@@ -19,6 +23,14 @@ T = TypeVar("T")
 
 class TopicTypeError(TypeError):
     """A value of the wrong type was published, or a topic was requested with another type."""
+
+
+@dataclass(frozen=True, slots=True)
+class TopicKey(Generic[T]):
+    """A topic's name and the one message type it carries."""
+
+    name: str
+    msg_type: type[T]
 
 
 class Topic(Generic[T]):
@@ -92,16 +104,16 @@ class Bus:
     def __init__(self) -> None:
         self._topics: dict[str, Topic[Any]] = {}
 
-    def topic(self, name: str, msg_type: type[T]) -> Topic[T]:
-        existing = self._topics.get(name)
+    def topic(self, key: TopicKey[T]) -> Topic[T]:
+        """The topic named ``key.name`` (created on first use), which carries ``key.msg_type``."""
+        existing = self._topics.get(key.name)
         if existing is None:
-            created: Topic[T] = Topic(name, msg_type)
-            self._topics[name] = created
+            created: Topic[T] = Topic(key.name, key.msg_type)
+            self._topics[key.name] = created
             return created
-        if existing.msg_type is not msg_type:
-            raise TopicTypeError(
-                f"topic {name!r} already carries {existing.msg_type.__name__}, not {msg_type.__name__}"
-            )
+        if existing.msg_type is not key.msg_type:
+            raise TopicTypeError(f"topic {key.name!r} already carries {existing.msg_type.__name__}, "
+                                 f"not {key.msg_type.__name__}")
         return existing
 
     def names(self) -> list[str]:

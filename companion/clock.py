@@ -98,6 +98,32 @@ class SimClock:
         return self._sleepers[0][0] if self._sleepers else None
 
 
+NOMINAL_STEP_S = 0.01
+"""The chapter's control period (100 Hz); the first step after a reset is taken to be this long."""
+STEP_MIN_S, STEP_MAX_S = 0.001, 0.1
+"""Bounds of a step: a repeated, late or missing sensor sample cannot kick an integrator."""
+
+
+class StepTimer:
+    """The one dt clamp: time between successive sensor samples (their own time stamps), in
+    [``STEP_MIN_S``, ``STEP_MAX_S``], :data:`NOMINAL_STEP_S` for the first sample after a reset."""
+
+    __slots__ = ("last_t_s",)
+
+    def __init__(self) -> None:
+        self.last_t_s: float | None = None
+
+    def reset(self) -> None:
+        self.last_t_s = None
+
+    def step(self, t_s: float) -> float:
+        """The step ending at sample time ``t_s`` (remembered for the next one)."""
+        last_t_s, self.last_t_s = self.last_t_s, t_s
+        if last_t_s is None:
+            return NOMINAL_STEP_S
+        return min(STEP_MAX_S, max(STEP_MIN_S, t_s - last_t_s))
+
+
 async def wait_for(clock: Clock, aw: Awaitable[T], timeout_s: float) -> T:
     """Like :func:`asyncio.wait_for`, but the timeout runs in ``clock`` time.
 

@@ -87,23 +87,42 @@ class Setting:
         return value
 
 
-def check_host_port(text: str) -> str | None:
-    """``host:port`` with a port in 1..65535."""
+def parse_host_port(text: str) -> tuple[str, int]:
+    """``host:port`` with a port in 1..65535 -> (host, port): the one address parser (MAVLink
+    links, hardware links, the simulator's ports).  Raises ValueError naming the problem."""
     host, sep, port = text.rpartition(":")
     if not sep or not host:
-        return "expected host:port"
+        raise ValueError("expected host:port")
     if not port.isdigit() or not 1 <= int(port) <= 65535:
-        return "port must be 1..65535"
+        raise ValueError("port must be 1..65535")
+    return host, int(port)
+
+
+def parse_serial(text: str, default_baud: int) -> tuple[str, int]:
+    """``device[:baud]`` (e.g. ``/dev/ttyUSB0:57600``) -> (device, baud).  Raises ValueError."""
+    device, sep, baud = text.partition(":")
+    if not device:
+        raise ValueError("expected device[:baud]")
+    if sep and (not baud.isdigit() or int(baud) <= 0):
+        raise ValueError("baud must be a positive integer")
+    return device, int(baud) if sep else default_baud
+
+
+def check_host_port(text: str) -> str | None:
+    """Why ``text`` is not ``host:port``, or None."""
+    try:
+        parse_host_port(text)
+    except ValueError as exc:
+        return str(exc)
     return None
 
 
 def check_serial(text: str) -> str | None:
-    """``device[:baud]``, e.g. ``/dev/ttyUSB0:57600``."""
-    dev, sep, baud = text.partition(":")
-    if not dev:
-        return "expected device[:baud]"
-    if sep and (not baud.isdigit() or int(baud) <= 0):
-        return "baud must be a positive integer"
+    """Why ``text`` is not ``device[:baud]``, or None."""
+    try:
+        parse_serial(text, 1)
+    except ValueError as exc:
+        return str(exc)
     return None
 
 

@@ -4,8 +4,9 @@ Every message carries ``t_s`` (seconds of the :mod:`companion.clock` time base) 
 units with the unit in the field name.  Angles are radians, heading/course are measured
 clockwise from true north in [0, 2*pi), body velocities follow Fossen's notation
 nu = [u, v, r] (surge m/s, sway m/s positive to starboard, yaw rate rad/s positive
-clockwise seen from above).  Topic names live next to the types in :data:`TOPICS` so
-that publishers and subscribers agree on them in one place.
+clockwise seen from above).  Every bus topic is a :class:`~companion.bus.TopicKey` constant
+at the end of this module (its name paired with its message type, all of them in
+:data:`TOPICS`), so publishers and subscribers agree on them in one place.
 """
 
 from __future__ import annotations
@@ -13,6 +14,12 @@ from __future__ import annotations
 import enum
 import math
 from dataclasses import dataclass, field
+from typing import Any
+
+from companion.bus import TopicKey
+
+BOTTLE_COUNT = 4
+"""Chapter section 4.2: four sampling bottles and one pump."""
 
 
 class FixType(enum.IntEnum):
@@ -101,7 +108,7 @@ class PayloadSensors:
 
     t_s: float
     cylinder_pressure_mpa: float
-    bottle_volume_ml: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
+    bottle_volume_ml: tuple[float, ...] = (0.0,) * BOTTLE_COUNT
 
 
 @dataclass(frozen=True, slots=True)
@@ -217,17 +224,57 @@ class GuidedTarget:
     t_s: float = 0.0
 
 
-TOPICS: dict[str, type] = {
-    "nav": NavState,
-    "engine": EngineState,
-    "payload_sensors": PayloadSensors,
-    "actuator_cmd": ActuatorCommand,
-    "servo_out": ServoOutputs,
-    "rc_in": RcInput,
-    "setpoint": Setpoint,
-    "model_error": ModelError,
-    "water_current": CurrentEstimate,
-    "status_text": StatusText,
-    "vehicle_status": VehicleStatus,
-}
-"""Canonical topic names and their message types."""
+@dataclass(frozen=True, slots=True)
+class PayloadCommand:
+    """What the payloads want from their actuators right now.
+
+    ``launcher_trigger``: trigger servo at its firing pulse (``trigger_pulse_us``) instead of
+    its safe pulse; ``pump_on`` with ``valve_bottle`` (1-4, 0 = all valves closed).
+    """
+
+    t_s: float
+    launcher_trigger: bool = False
+    trigger_pulse_us: int = 1100
+    pump_on: bool = False
+    valve_bottle: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class ManualControlInput:
+    """One MANUAL_CONTROL from a ground station, normalised (None: axis not sent)."""
+
+    t_s: float
+    steering: float | None
+    """-1..1 from ``y / 1000``; positive turns to starboard."""
+    throttle: float | None
+    """0..1 from ``z / 1000`` (negative z is idle: no reverse on a water jet)."""
+
+
+NAV_TOPIC = TopicKey("nav", NavState)
+"""Every GPS-INS sample (published by the pipeline before its stages run)."""
+ENGINE_TOPIC = TopicKey("engine", EngineState)
+ACTUATOR_CMD_TOPIC = TopicKey("actuator_cmd", ActuatorCommand)
+"""What the controller (or MANUAL, HOLD) asks of nozzle, throttle and ignition."""
+SERVO_OUT_TOPIC = TopicKey("servo_out", ServoOutputs)
+RC_IN_TOPIC = TopicKey("rc_in", RcInput)
+SETPOINT_TOPIC = TopicKey("setpoint", Setpoint)
+MODEL_ERROR_TOPIC = TopicKey("model_error", ModelError)
+"""The UKF's delta_nu (Eq. 5-11)."""
+WATER_CURRENT_TOPIC = TopicKey("water_current", CurrentEstimate)
+"""The current-augmented UKF's estimate of the water current (``models.ukf = "current"``)."""
+STATUS_TEXT_TOPIC = TopicKey("status_text", StatusText)
+VEHICLE_STATUS_TOPIC = TopicKey("vehicle_status", VehicleStatus)
+PAYLOAD_SENSORS_TOPIC = TopicKey("payload_sensors", PayloadSensors)
+"""Published by the sensor driver that parses the boat's payload sentence (``$PUSVP``)."""
+PAYLOAD_CMD_TOPIC = TopicKey("payload_cmd", PayloadCommand)
+"""Published by the payloads (:class:`~companion.payloads.topics.PayloadOutputs`); their servo
+channels read it for every frame, observers (logs, tests) see it here."""
+MANUAL_CONTROL_TOPIC = TopicKey("manual_control", ManualControlInput)
+"""MAVLink MANUAL_CONTROL from a ground station (:mod:`companion.mavlink.manual_control`)."""
+
+TOPICS: tuple[TopicKey[Any], ...] = (
+    NAV_TOPIC, ENGINE_TOPIC, ACTUATOR_CMD_TOPIC, SERVO_OUT_TOPIC, RC_IN_TOPIC, SETPOINT_TOPIC,
+    MODEL_ERROR_TOPIC, WATER_CURRENT_TOPIC, STATUS_TEXT_TOPIC, VEHICLE_STATUS_TOPIC, PAYLOAD_SENSORS_TOPIC,
+    PAYLOAD_CMD_TOPIC, MANUAL_CONTROL_TOPIC,
+)
+"""Every topic of the product."""

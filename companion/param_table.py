@@ -21,9 +21,6 @@ CORE_PARAMS: tuple[ParamDef, ...] = (
              reboot_required=True),
     ParamDef("FRAME_CLASS", 2, 2, 2, "", "ArduPilot Rover frame class; 2 = boat (read by GCS software).",
              is_int=True, choices=((2, "Boat"),)),
-    ParamDef("USV_LOOP_HZ", 100, 10, 200, "Hz",
-             "Control loop rate; the chapter's control period is 0.01 s (100 Hz).", is_int=True,
-             reboot_required=True),
 )
 
 

@@ -46,7 +46,18 @@ from companion.actuators.servo import ServoMap, encode_frame
 from companion.bus import Bus
 from companion.clock import Clock
 from companion.control.target import ControlRequest
-from companion.messages import ActuatorCommand, CurrentEstimate, ModelError, NavState, ServoOutputs
+from companion.messages import (
+    ACTUATOR_CMD_TOPIC,
+    MODEL_ERROR_TOPIC,
+    NAV_TOPIC,
+    SERVO_OUT_TOPIC,
+    WATER_CURRENT_TOPIC,
+    ActuatorCommand,
+    CurrentEstimate,
+    ModelError,
+    NavState,
+    ServoOutputs,
+)
 from companion.transport import ByteLink
 
 log = logging.getLogger(__name__)
@@ -120,7 +131,7 @@ class ServoOutput:
         self.stats = stats
         self.link: ByteLink | None = None
         """Where frames go (the servo controller); set by the hardware service while it runs."""
-        self._servo_out = bus.topic("servo_out", ServoOutputs)
+        self._servo_out = bus.topic(SERVO_OUT_TOPIC)
 
     def write(self, cmd: ActuatorCommand | None, ack: str = "") -> ServoOutputs:
         """Build, publish and send the frame for ``cmd`` (``None``: nothing commanded yet, which
@@ -159,10 +170,10 @@ class Pipeline:
         """The command in force: the last one the modes stage returned."""
         self.last_sample_s: float | None = None
         self._t = 0.0
-        self._nav = bus.topic("nav", NavState)
-        self._model_error = bus.topic("model_error", ModelError)
-        self._current = bus.topic("water_current", CurrentEstimate)
-        self._command = bus.topic("actuator_cmd", ActuatorCommand)
+        self._nav = bus.topic(NAV_TOPIC)
+        self._model_error = bus.topic(MODEL_ERROR_TOPIC)
+        self._current = bus.topic(WATER_CURRENT_TOPIC)
+        self._command = bus.topic(ACTUATOR_CMD_TOPIC)
 
     def on_sample(self, nav: NavState, ack: str = "") -> ServoOutputs:
         """Run the pipeline for one navigation sample and write its servo frame."""

@@ -19,7 +19,7 @@ from companion.actuators.servo import ServoMap
 from companion.app import BaseService, Context, Service
 from companion.bus import Bus
 from companion.clock import Clock
-from companion.config import Config
+from companion.config import Config, parse_host_port
 from companion.control.system import ControlSystem
 from companion.estimation.service import (
     EstimatorStage,
@@ -141,8 +141,8 @@ class ReadyBanner(BaseService):
         cfg = self.ctx.config
         lines = [f"{self.title} ready"]
         for target in cfg["links.udp_targets"]:
-            port = target.rpartition(":")[2]
-            who = {"14550": "QGroundControl", "14540": "MAVSDK (udpin://0.0.0.0:14540)"}.get(port, "GCS")
+            port = parse_host_port(target)[1]
+            who = {14550: "QGroundControl", 14540: "MAVSDK (udpin://0.0.0.0:14540)"}.get(port, "GCS")
             lines.append(f"  MAVLink UDP -> {target}  ({who})")
         if cfg["links.tcp_listen"]:
             lines.append(f"  MAVLink TCP server {cfg['links.tcp_listen']}  (MAVProxy: "

@@ -18,7 +18,11 @@ from collections.abc import Callable, Mapping
 from companion.app import Context
 from companion.control.manual_input import PilotInput, pilot_input
 from companion.control.system import ControlSystem
+from companion.guidance.geo import lat_lon_problem
 from companion.messages import (
+    NAV_TOPIC,
+    STATUS_TEXT_TOPIC,
+    VEHICLE_STATUS_TOPIC,
     FixType,
     GuidedTarget,
     Home,
@@ -83,9 +87,9 @@ class Vehicle:
         ]
         self.home_listeners: list[Callable[[Home], None]] = []
         self.status_listeners: list[Callable[[], None]] = []
-        self._nav = ctx.bus.topic("nav", NavState)
-        self._status_text = ctx.bus.topic("status_text", StatusText)
-        self._vehicle_status = ctx.bus.topic("vehicle_status", VehicleStatus)
+        self._nav = ctx.bus.topic(NAV_TOPIC)
+        self._status_text = ctx.bus.topic(STATUS_TEXT_TOPIC)
+        self._vehicle_status = ctx.bus.topic(VEHICLE_STATUS_TOPIC)
         mission.changed_listeners.append(self._notify_status_listeners)
         modes.add_listener(self._on_mode_changed)
         self._nav.add_listener(self._on_nav)
@@ -206,9 +210,8 @@ class Vehicle:
     def set_home(self, lat_deg: float, lon_deg: float, alt_m: float = 0.0, *,
                  announce: bool = True) -> str | None:
         """Set home; refuses positions that are not on the globe."""
-        if not (math.isfinite(lat_deg) and -90 <= lat_deg <= 90 and math.isfinite(lon_deg)
-                and -180 <= lon_deg <= 180):
-            return f"home {lat_deg}, {lon_deg} is not a valid position"
+        if (problem := lat_lon_problem(lat_deg, lon_deg)) is not None:
+            return f"home refused: {problem.text}"
         self.home = Home(lat_deg, lon_deg, alt_m if math.isfinite(alt_m) else 0.0)
         if announce:
             self.status(f"Home set to {lat_deg:.7f}, {lon_deg:.7f}", Severity.INFO)

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from companion.angles import wrap_pi
 from companion.config import ConfigError
 from sim_bridge.disturbances import spec_from_strings
 from sim_bridge.gpsins import GpsInsModel
@@ -49,10 +50,6 @@ class ManeuverLog:
 
     def __len__(self) -> int:
         return len(self.columns["t"])
-
-
-def _wrap_pi(a: float) -> float:
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def run_maneuver(kind: str, *, throttle: float = 0.3, amplitude_rad: float = math.pi / 3,
@@ -94,7 +91,7 @@ def run_maneuver(kind: str, *, throttle: float = 0.3, amplitude_rad: float = mat
         elif kind == "zigzag":
             if psi_ref is None:
                 psi_ref = s.psi_rad
-            dpsi = _wrap_pi(meas.psi_rad - psi_ref)
+            dpsi = wrap_pi(meas.psi_rad - psi_ref)
             if zig_sign > 0 and dpsi >= amplitude_rad:
                 zig_sign = -1.0
             elif zig_sign < 0 and dpsi <= -amplitude_rad:

@@ -3,28 +3,36 @@ from dataclasses import FrozenInstanceError
 
 import pytest
 
-from companion.bus import Bus, TopicTypeError
-from companion.messages import TOPICS, EngineState, NavState, Setpoint
+from companion.bus import Bus, TopicKey, TopicTypeError
+from companion.messages import (
+    ENGINE_TOPIC,
+    NAV_TOPIC,
+    SETPOINT_TOPIC,
+    TOPICS,
+    EngineState,
+    NavState,
+    Setpoint,
+)
 
 
 def test_topic_keeps_only_the_latest_value_and_counts_publications() -> None:
     bus = Bus()
-    topic = bus.topic("setpoint", Setpoint)
+    topic = bus.topic(SETPOINT_TOPIC)
     assert topic.latest() is None
     topic.publish(Setpoint(0.0, 1.0, 2.0))
     topic.publish(Setpoint(0.1, 1.5, 3.0))
     assert topic.latest() == Setpoint(0.1, 1.5, 3.0)
     assert topic.seq == 2
-    assert bus.topic("setpoint", Setpoint) is topic
+    assert bus.topic(SETPOINT_TOPIC) is topic
 
 
 def test_wrong_types_are_refused() -> None:
     bus = Bus()
-    topic = bus.topic("engine", EngineState)
+    topic = bus.topic(ENGINE_TOPIC)
     with pytest.raises(TopicTypeError, match="carries EngineState"):
         topic.publish(Setpoint(0.0, 0.0, 0.0))  # type: ignore[arg-type]
     with pytest.raises(TopicTypeError, match="already carries"):
-        bus.topic("engine", Setpoint)
+        bus.topic(TopicKey("engine", Setpoint))
 
 
 def test_messages_are_frozen() -> None:
@@ -34,15 +42,16 @@ def test_messages_are_frozen() -> None:
 
 
 def test_every_canonical_topic_type_is_a_frozen_dataclass_with_a_timestamp() -> None:
-    for name, msg_type in TOPICS.items():
-        fields = msg_type.__dataclass_fields__  # type: ignore[attr-defined]
-        assert "t_s" in fields, name
-        assert msg_type.__dataclass_params__.frozen, name  # type: ignore[attr-defined]
+    assert len({key.name for key in TOPICS}) == len(TOPICS)  # one key per name
+    for key in TOPICS:
+        fields = key.msg_type.__dataclass_fields__
+        assert "t_s" in fields, key.name
+        assert key.msg_type.__dataclass_params__.frozen, key.name
 
 
 async def test_listeners_run_synchronously_and_readers_wake() -> None:
     bus = Bus()
-    topic = bus.topic("engine", EngineState)
+    topic = bus.topic(ENGINE_TOPIC)
     heard: list[float] = []
     remove = topic.add_listener(lambda m: heard.append(m.rpm))
     reader = asyncio.create_task(topic.next())
@@ -57,7 +66,7 @@ async def test_listeners_run_synchronously_and_readers_wake() -> None:
 
 async def test_slow_subscriber_skips_to_latest() -> None:
     bus = Bus()
-    topic = bus.topic("nav", NavState)
+    topic = bus.topic(NAV_TOPIC)
     seen: list[float] = []
 
     async def reader() -> None:

@@ -2,7 +2,16 @@ import asyncio
 
 import pytest
 
-from companion.clock import SimClock, WallClock, periodic, wait_for
+from companion.clock import (
+    NOMINAL_STEP_S,
+    STEP_MAX_S,
+    STEP_MIN_S,
+    SimClock,
+    StepTimer,
+    WallClock,
+    periodic,
+    wait_for,
+)
 
 
 async def test_sim_clock_wakes_sleepers_in_deadline_order_at_their_deadline() -> None:
@@ -72,3 +81,13 @@ async def test_wall_clock_moves_forward() -> None:
     t0 = clock.now_s()
     await clock.sleep(0.01)
     assert clock.now_s() > t0
+
+
+def test_step_timer_clamps_the_sensor_time_step() -> None:
+    timer = StepTimer()
+    assert timer.step(5.0) == NOMINAL_STEP_S  # first sample: the nominal control period
+    assert timer.step(5.02) == pytest.approx(0.02)
+    assert timer.step(5.02) == STEP_MIN_S  # a repeated sample
+    assert timer.step(9.0) == STEP_MAX_S  # a gap: integrators must not get the whole of it
+    timer.reset()
+    assert timer.step(9.5) == NOMINAL_STEP_S

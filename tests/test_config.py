@@ -27,8 +27,10 @@ def test_defaults_work_for_sitl() -> None:
         ({"vehicle": {"profile": "px4"}},
          "vehicle.profile: invalid value 'px4'; accepted: one of 'ardurover'"),
         ({"links": {"udp_targets": ["localhost"]}}, "links.udp_targets: invalid entry 'localhost'"),
+        ({"links": {"tcp_listen": "127.0.0.1:70000"}}, r"links.tcp_listen: .*port must be 1..65535"),
+        ({"links": {"serial": ["/dev/ttyUSB1:fast"]}}, "links.serial: .*baud must be a positive integer"),
         ({"sim": {"speedup": float("nan")}}, "sim.speedup: invalid value nan"),
-        ({"params": {"USV_LOOP_HZ": 1000}}, r"params.USV_LOOP_HZ: 1000 is out of range \[10, 200\] Hz"),
+        ({"params": {"USV_TURN_RAD": 1000}}, r"params.USV_TURN_RAD: 1000 is out of range \[0.5, 50\] m"),
         ({"params": {"NOT_A_PARAM": 1}}, "unknown parameter params.NOT_A_PARAM"),
     ],
 )
@@ -38,8 +40,8 @@ def test_bad_keys_and_values_name_the_key_and_the_accepted_range(doc: dict, mess
 
 
 def test_params_table_sets_initial_parameter_values() -> None:
-    cfg = parse_config({"params": {"USV_LOOP_HZ": 50}}, all_param_defs())
-    assert cfg.params == {"USV_LOOP_HZ": 50.0}
+    cfg = parse_config({"params": {"USV_TURN_RAD": 3}}, all_param_defs())
+    assert cfg.params == {"USV_TURN_RAD": 3.0}
 
 
 @pytest.mark.parametrize(

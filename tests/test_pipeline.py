@@ -3,15 +3,22 @@ servo frame per sample, observers on the bus, and a failing controller sends the
 
 from __future__ import annotations
 
+from typing import Any
+
 from companion.actuators.servo import ServoMap
+from companion.bus import TopicKey
 from companion.messages import (
+    ACTUATOR_CMD_TOPIC,
+    MODEL_ERROR_TOPIC,
+    SERVO_OUT_TOPIC,
+    STATUS_TEXT_TOPIC,
+    WATER_CURRENT_TOPIC,
     ActuatorCommand,
     CurrentEstimate,
     ModelError,
     ModeNumber,
     NavState,
     ServoOutputs,
-    StatusText,
 )
 from companion.pipeline import LoopStats, Pipeline, ServoOutput
 from tests.mavlink.helpers import make_ctx, make_vehicle, publish_nav
@@ -50,27 +57,26 @@ def _sample(ctx, pipeline, t_s: float) -> tuple[NavState, ServoOutputs]:  # type
 
 def test_stages_hand_their_results_on_and_observers_see_them() -> None:
     ctx, vehicle, estimator, pipeline = _pipeline()
-    seen: dict[str, list[object]] = {"model_error": [], "actuator_cmd": [], "servo_out": [],
-                                     "water_current": []}
-    for name, kind in (("model_error", ModelError), ("actuator_cmd", ActuatorCommand),
-                       ("servo_out", ServoOutputs), ("water_current", CurrentEstimate)):
-        ctx.bus.topic(name, kind).add_listener(seen[name].append)
+    seen: dict[TopicKey[Any], list[object]] = {MODEL_ERROR_TOPIC: [], ACTUATOR_CMD_TOPIC: [],
+                                               SERVO_OUT_TOPIC: [], WATER_CURRENT_TOPIC: []}
+    for key, received in seen.items():
+        ctx.bus.topic(key).add_listener(received.append)
     _sample(ctx, pipeline, 1.0)  # HOLD: idle, engine off
     assert vehicle.arm() is None and vehicle.set_mode(ModeNumber.CRUISE) is None
     vehicle.speed_override_mps = 5.0
     _sample(ctx, pipeline, 1.01)
     _, second = _sample(ctx, pipeline, 1.02)
     # the estimator is told the command applied since the last sample: none, then the last one
-    assert estimator.applied == [None, seen["actuator_cmd"][0], seen["actuator_cmd"][1]]
+    assert estimator.applied == [None, seen[ACTUATOR_CMD_TOPIC][0], seen[ACTUATOR_CMD_TOPIC][1]]
     # the controller flew the active model's law with the estimate the pipeline handed over
     assert vehicle.control._delta_nu() == (0.1, 0.0, 0.0)
     # and guidance sees the water current the estimator found (observers too)
     current = vehicle.control.water_current
-    assert current is not None and current.east_mps == 0.5 and seen["water_current"][-1] == current
-    assert len(seen["model_error"]) == len(seen["actuator_cmd"]) == len(seen["servo_out"]) == 3
-    cmd = seen["actuator_cmd"][2]
+    assert current is not None and current.east_mps == 0.5 and seen[WATER_CURRENT_TOPIC][-1] == current
+    assert len(seen[MODEL_ERROR_TOPIC]) == len(seen[ACTUATOR_CMD_TOPIC]) == len(seen[SERVO_OUT_TOPIC]) == 3
+    cmd = seen[ACTUATOR_CMD_TOPIC][2]
     assert isinstance(cmd, ActuatorCommand) and cmd.throttle > 0.0 and cmd.ignition_on
-    assert second == seen["servo_out"][2] and second.pulse_us == pipeline.output.servo_map.pulses(cmd)
+    assert second == seen[SERVO_OUT_TOPIC][2] and second.pulse_us == pipeline.output.servo_map.pulses(cmd)
     assert pipeline.stats.samples == pipeline.stats.frames == 3
     stages = {"nav_publish", "estimator", "modes", "controller", "servo_frame"}
     assert set(pipeline.stats.per_sample_us()) == stages
@@ -90,7 +96,7 @@ def test_hold_commands_directly_and_a_mode_without_news_keeps_the_last_command()
 def test_a_failing_controller_sends_the_boat_to_hold() -> None:
     ctx, vehicle, _, pipeline = _pipeline()
     texts: list[str] = []
-    ctx.bus.topic("status_text", StatusText).add_listener(lambda s: texts.append(s.text))
+    ctx.bus.topic(STATUS_TEXT_TOPIC).add_listener(lambda s: texts.append(s.text))
     _sample(ctx, pipeline, 0.5)
     assert vehicle.arm() is None and vehicle.set_mode(ModeNumber.CRUISE) is None
 

@@ -11,7 +11,13 @@ from hypothesis import strategies as st
 from companion.actuators.servo import ServoMap, decode_frame, encode_frame
 from companion.bus import Bus
 from companion.clock import SimClock
-from companion.messages import ActuatorCommand, EngineState, NavState, RcInput
+from companion.messages import (
+    ENGINE_TOPIC,
+    PAYLOAD_SENSORS_TOPIC,
+    RC_IN_TOPIC,
+    ActuatorCommand,
+    NavState,
+)
 from companion.param_table import all_param_defs
 from companion.params import ParamStore
 from companion.sensors.gpsins import GpsInsParser
@@ -65,16 +71,15 @@ def test_bad_input_is_counted_and_dropped_and_the_next_sentence_still_parses(jun
 
 
 def test_engine_payload_and_rc_sentences_reach_the_bus() -> None:
-    from companion.payloads.topics import PayloadSensors
 
     p, _, bus = parser()
     p.feed(build("PUSVE,4200,1") + build("PUSVP,29.50,0,0.0,120.0,0.0,0.0,1,2")
            + build("PUSVRC,0,1500,1500,1100,1500,1100,1900,1100,1100"))
-    eng = bus.topic("engine", EngineState).latest()
+    eng = bus.topic(ENGINE_TOPIC).latest()
     assert eng is not None and eng.rpm == 4200 and eng.running
-    pay = bus.topic("payload_sensors", PayloadSensors).latest()
+    pay = bus.topic(PAYLOAD_SENSORS_TOPIC).latest()
     assert pay is not None and pay.cylinder_pressure_mpa == 29.5 and pay.bottle_volume_ml[1] == 120.0
-    rc = bus.topic("rc_in", RcInput).latest()
+    rc = bus.topic(RC_IN_TOPIC).latest()
     assert rc is not None and rc.source == 0 and rc.channels_us[5] == 1900
 
 

@@ -17,9 +17,9 @@ import sys
 from pathlib import Path
 
 DEFAULT_WINDOW_S = 2.0
-"""Savitzky-Golay window: with the GPS-INS's 0.1 m/s velocity noise, 0.5 s leaves enough noise
-in the sway regressors to bias the qLPV sway row (measured: calm sine validation, free-run
-J_v 15.4 % at 0.5 s, 9.4 % at 2 s); 2 s is still short against the 10 s sine period."""
+"""Savitzky-Golay window: long enough that the GPS-INS's 0.1 m/s velocity noise left in the sway
+regressors does not bias the qLPV sway row, short against the chapter's 10 s sine period
+(``docs/tuning.md``)."""
 HELP = "identify the qLPV model and baselines from manoeuvre logs; J table, report, params.toml"
 
 

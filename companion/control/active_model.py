@@ -27,24 +27,20 @@ is raised until full nozzle gives the requested yaw moment (a water jet has no s
 thrust), so the boat does not lose its turn when it is also asked to slow down.
 
 Near standstill (commanded speed below ``turn_boost_speed_mps``: station keeping, turning on the
-spot, circling a point) the idle jet has almost no yaw authority (with the identified yaw row,
-b_r T sin(delta_max) ~ 0.04 rad/s^2 at the throttle that holds a 1.2 m/s current), and two things
-change.  The extra thrust of the yaw priority is scaled by how much of a turn guidance asks for
-(the larger of heading error / ``turn_boost_full_error_rad`` and r_d / r_max) and capped at
-``turn_throttle_max`` unless guidance plans the turn (its feed-forward rate): an unscaled,
-uncapped boost revved the engine over every small heading wobble and pushed the boat off its
-station (GUIDED in a 1.2 m/s current settled 7 m off its point; LOITER in 1.5 m/s drew 5 m
-circles without the cap), while circling a point at the turning radius needs the planned-turn
-exemption (radial error 1.27 m capped, 0.44 m exempt).  And the nozzle angle is solved against
-at least the thrust of ``yaw_inversion_min_throttle``, so a small yaw demand at idle does not
-throw the nozzle from stop to stop.  Measured on the full SITL stack, seeds 1-5, last 20 s:
-GUIDED in 1.2 m/s current 0.45-0.48 m from its point, LOITER in 1.5 m/s 0.55-0.68 m after 20 s.
-PID holds these tighter (0.32-0.37 m, 0.20-0.24 m), and with 3 m/s wind and Hs 0.3 m waves
-added this law lets the boat wander 5-7 m off the point where PID stays within 0.6 m: the qLPV
-model is evaluated on over-ground velocities, and near standstill in a current those are mostly
-drift (the hull's sway and yaw terms then change with every heading change faster than the UKF
-follows).  So station keeping runs the PID family unless ``USV_STN_CTRL`` is 1
-(:mod:`companion.control.system`); this law is for making way.
+spot, circling a point) the idle jet has almost no yaw authority (b_r T sin(delta_max) is small
+at the thrust that holds the boat in a current), and two things change.  The extra thrust of the
+yaw priority is scaled by how much of a turn guidance asks for (the larger of heading error /
+``turn_boost_full_error_rad`` and r_d / r_max) and capped at ``turn_throttle_max`` unless guidance
+plans the turn (its feed-forward rate ``course_rate_radps``, as when circling a point at the
+turning radius), so a heading wobble does not rev the engine and push the boat off its station.
+And the nozzle angle is solved against at least the thrust of ``yaw_inversion_min_throttle``, so
+a small yaw demand at idle does not throw the nozzle from stop to stop.
+
+The qLPV model is evaluated on over-ground velocities, and near standstill in a current those
+are mostly drift (the hull's sway and yaw terms then change with every heading change faster
+than the UKF follows).  So station keeping runs the PID family unless ``USV_STN_CTRL`` is 1
+(:mod:`companion.control.system`); this law is for making way.  The measurements behind these
+choices are in ``docs/tuning.md``; the current figures in ``usv bench`` (``control``).
 """
 
 from __future__ import annotations
@@ -95,8 +91,7 @@ class ActiveModelConfig:
     """Below ``turn_boost_speed_mps`` the nozzle angle is solved as if the jet pushed at least
     this throttle's thrust; the surge row keeps what it asked for and the yaw row gets less than
     it asked.  At idle thrust the exact inversion turns the smallest yaw demand into full nozzle
-    and the nozzle chatters from side to side (measured: GUIDED held its point in a 1.2 m/s
-    current within 0.55-0.78 m, 0.44-0.48 m with this)."""
+    and the nozzle chatters from side to side."""
     turn_boost_full_error_rad: float = math.radians(90.0)
     """Below ``turn_boost_speed_mps`` the yaw row's extra thrust is scaled by the turn asked
     for: full at this heading error (or at the largest desired turn rate), in proportion below.

@@ -10,27 +10,18 @@ component of the normalised thrust ``T cos delta = (u_dot_d - [A nu]_u - dnu_u) 
 model mismatch are cancelled by the disturbance observer instead of an integrator.
 
 Desired acceleration.  ``u_dot_d = sat(a_r + k_u (u_r - u), -a_dec, a_acc)``.  By default the
-reference is the command itself (``u_r = u_d``, ``a_r = 0``): the step has no overshoot of its
-own (0.00 % in calm water), so the overshoot figure in waves is the waves'.  An optional
-critically damped reference model (``ref_radps``; Fossen 2021, section 12.1) shapes increases
-of the command; it is off because it delays the speed changes the path follower asks for at
-corners (square whole-run max 1.29 -> 2.36 m on seed 3, measured).
+reference is the command itself (``u_r = u_d``, ``a_r = 0``), so a speed step has no overshoot of
+its own.  An optional critically damped reference model (``ref_radps``; Fossen 2021, section
+12.1) shapes increases of the command; it is off by default because it delays the speed changes
+the path follower asks for at corners.
 
-Wave filtering.  In the speed scenario the waves (Hs 0.3 m, Tp = 4 sqrt(Hs) = 2.2 s, from 45
-degrees off the bow) are met at 0.6-1.6 Hz (4-10 rad/s); the engine answers the throttle with
-a 0.4 s lag (gain 0.3-0.4 and 65-75 degrees of phase there), the throttle slews at 100 %/s,
-and 6 m/s in that weather needs about 87 % throttle.  So the first-order wave surge force
-cannot be cancelled: an oracle that knows it exactly and ahead and inverts the engine lag
-removes 0-9 % of the surge RMS within those limits (``oracle_rms_mps`` of
-:func:`benchmarks.control_scenarios.speed_wave_floor`), and the UKF's delta_nu_u lags it by
-about 0.3 s, so feeding it back at wave frequency only adds motion.  The law therefore passes
-delta_nu_u through a second-order Butterworth low-pass at ``dnu_cutoff_radps`` (5 rad/s: -1.5 dB
-at 4 rad/s, -8 dB at the 7.5 rad/s peak, -12 dB at 10 rad/s; 5 degrees of lag at 0.3 rad/s
-gusts where the shared first-order 1 s filter lags 17 degrees), which rejects gusts, drift and
-mismatch quickly and damps the wave motion.  A 3 rad/s cut-off damps the waves more but, with
-the shipped model (identified from richer logs), lets gusts through: 0.010-0.011 m/s against
-PID's 0.009-0.011.  Measured with 5 rad/s: speed-step steady RMS 0.0475 m/s worst of seeds 1-3
-(PID 0.0509); 5 m/s into an 8 m/s gusty wind, 0.007-0.009 m/s (PID 0.009-0.011).
+Wave filtering.  The first-order wave surge force (met at 0.6-1.6 Hz) cannot be cancelled
+through the engine's 0.4 s lag and the throttle's slew limit (the bound is
+:func:`benchmarks.control_scenarios.speed_wave_floor`), and the UKF's delta_nu_u lags it, so
+feeding delta_nu_u back at wave frequency only adds motion.  The law therefore passes delta_nu_u
+through a second-order Butterworth low-pass at ``dnu_cutoff_radps``, which rejects gusts, drift
+and mismatch quickly and damps the wave motion.  How the defaults were chosen, with the figures
+measured at the time: ``docs/tuning.md``.
 
 Braking.  A speed excess beyond ``brake_deadband_mps`` is corrected with the firmer
 ``brake_k_per_s``, so the path follower's slow-down before a corner or the last waypoint is
@@ -59,9 +50,8 @@ class AmSpeedConfig:
     brake_k_per_s: float = 1.0
     """k_u for the part of a speed excess beyond ``brake_deadband_mps`` (1/s): braking for a
     corner or the last waypoint is firmer, the wave ripple about the command (centimetres per
-    second) still sees ``k_u`` alone.  With ``k_u`` alone the boat follows the path follower's
-    0.4 m/s^2 braking profile 0.8 m/s fast (``a / k_u``; 0.55 m/s with this) and reached a
-    station point too fast to stop there (RTL and GUIDED in a 1.2 m/s current looped round it)."""
+    second) still sees ``k_u`` alone.  A first-order law lags a braking profile of deceleration
+    a by ``a / k_u``; with ``k_u`` alone the boat reaches a station point too fast to stop there."""
     brake_deadband_mps: float = 0.3
     accel_max_mps2: float = 1.5
     decel_max_mps2: float = 1.0

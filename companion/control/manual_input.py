@@ -8,7 +8,7 @@ throttle 0..1):
   (INT16_MAX = axis not used).  Rover maps ``z`` onto a centred throttle channel (0 = stop,
   negative = reverse); a water jet has no reverse, so ``z <= 0`` is idle and ``z = 1000`` full
   throttle.  :mod:`companion.mavlink.manual_control` publishes :class:`ManualControlInput` on
-  the bus topic :data:`MANUAL_CONTROL_TOPIC`.
+  the bus topic :data:`~companion.messages.MANUAL_CONTROL_TOPIC`.
 - The RC receiver on ``rc_in`` (``$PUSVRC`` from the GPS-INS box): channel 1 steering
   (1500 +- 400 us), channel 3 throttle (1100 us idle .. 1900 us full), as the boat's
   transmitter is set up (:class:`sim_bridge.payload.RcTransmitter`).
@@ -24,25 +24,13 @@ import math
 from dataclasses import dataclass
 
 from companion.bus import Bus
-from companion.messages import RcInput
+from companion.messages import MANUAL_CONTROL_TOPIC, RC_IN_TOPIC, ManualControlInput
 
-MANUAL_CONTROL_TOPIC = "manual_control"
 AXIS_UNUSED = 32767
 """INT16_MAX: MANUAL_CONTROL's marker for an axis the ground station does not send."""
 STICK_DEADBAND = 0.05
 RC_STEER_CHANNEL = 1
 RC_THROTTLE_CHANNEL = 3
-
-
-@dataclass(frozen=True, slots=True)
-class ManualControlInput:
-    """One MANUAL_CONTROL from a ground station, normalised (None: axis not sent)."""
-
-    t_s: float
-    steering: float | None
-    """-1..1 from ``y / 1000``; positive turns to starboard."""
-    throttle: float | None
-    """0..1 from ``z / 1000`` (negative z is idle: no reverse on a water jet)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -91,10 +79,10 @@ def _channel(channels_us: tuple[int, ...], channel: int) -> int | None:
 
 def pilot_input(bus: Bus, now_s: float, timeout_s: float) -> PilotInput | None:
     """The pilot's steering and throttle: fresh MANUAL_CONTROL first, else a fresh RC receiver."""
-    gcs = bus.topic(MANUAL_CONTROL_TOPIC, ManualControlInput).latest()
+    gcs = bus.topic(MANUAL_CONTROL_TOPIC).latest()
     if gcs is not None and now_s - gcs.t_s <= timeout_s:
         return PilotInput(gcs.steering or 0.0, gcs.throttle or 0.0, "gcs")
-    rc = bus.topic("rc_in", RcInput).latest()
+    rc = bus.topic(RC_IN_TOPIC).latest()
     if rc is not None and now_s - rc.t_s <= timeout_s:
         steering, throttle = rc_steering(rc.channels_us), rc_throttle(rc.channels_us)
         if steering is not None and throttle is not None:

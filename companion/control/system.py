@@ -17,8 +17,9 @@ from __future__ import annotations
 import logging
 import math
 
+from companion.angles import wrap_2pi
 from companion.bus import Bus
-from companion.clock import Clock
+from companion.clock import Clock, StepTimer
 from companion.control.active_model import ActiveModelController
 from companion.control.actuator import ActuatorMapper
 from companion.control.params import (
@@ -32,6 +33,8 @@ from companion.control.params import (
 from companion.control.pid_family import PidController
 from companion.control.target import ControlOutput, ControlRequest, ControlTarget, CourseSpeedController
 from companion.messages import (
+    SETPOINT_TOPIC,
+    STATUS_TEXT_TOPIC,
     ActuatorCommand,
     CurrentEstimate,
     ModelError,
@@ -44,9 +47,6 @@ from companion.models.qlpv import QLPVModel
 from companion.params import ParamStore
 
 log = logging.getLogger(__name__)
-
-DT_MIN_S, DT_MAX_S = 0.001, 0.1
-"""The step uses sensor time; gaps are clamped so a late sample cannot kick the integrators."""
 
 MODEL_ERROR_STALE_S = 0.5
 """An estimate older than this (clock time) is not used by the active-model law."""
@@ -62,14 +62,15 @@ class ControlSystem:
         self._families: dict[int, CourseSpeedController] = {}
         self._active_type: int | None = None
         self.mapper = ActuatorMapper(actuator_limits(params))
-        self._last_t_s: float | None = None
+        self._timer = StepTimer()
+        """The step uses sensor time, clamped (shared by :meth:`step` and :meth:`direct`)."""
         self.last_output: ControlOutput | None = None
         self.last_target: ControlTarget | None = None
         self._model_error: ModelError | None = None
         self._current: CurrentEstimate | None = None
         self._warned_no_model = False
-        self._setpoint = bus.topic("setpoint", Setpoint)
-        self._status = bus.topic("status_text", StatusText)
+        self._setpoint = bus.topic(SETPOINT_TOPIC)
+        self._status = bus.topic(STATUS_TEXT_TOPIC)
         params.add_listener(self._on_param)
 
     def _on_param(self, name: str, value: float) -> None:
@@ -134,14 +135,12 @@ class ControlSystem:
 
     def reset(self) -> None:
         """Forget timing and integrators (a mode was entered)."""
-        self._last_t_s = None
+        self._timer.reset()
         self._active_type = None
 
     def step(self, nav: NavState, target: ControlTarget, *, ignition_on: bool = True) -> ActuatorCommand:
         """Run one control period for ``target``; the actuator command for the servo frame."""
-        dt = 0.01 if self._last_t_s is None else nav.t_s - self._last_t_s
-        dt = min(DT_MAX_S, max(DT_MIN_S, dt))
-        self._last_t_s = nav.t_s
+        dt = self._timer.step(nav.t_s)
         kind = self.family_type(target)
         fam = self._family(kind)
         if kind != self._active_type:
@@ -152,14 +151,13 @@ class ControlSystem:
         out = fam.update(nav, target, dt, self.mapper.saturation)
         nozzle, throttle, _ = self.mapper.apply(out.nozzle_rad, out.throttle, dt)
         self.last_output, self.last_target = out, target
-        self._setpoint.publish(Setpoint(nav.t_s, target.course_rad % (2 * math.pi), target.speed_mps))
+        self._setpoint.publish(Setpoint(nav.t_s, wrap_2pi(target.course_rad), target.speed_mps))
         return ActuatorCommand(t_s=nav.t_s, nozzle_rad=nozzle, throttle=throttle, ignition_on=ignition_on)
 
     def direct(self, nav: NavState, nozzle_rad: float, throttle: float, *,
                ignition_on: bool = True) -> ActuatorCommand:
         """Pass a nozzle angle and throttle (MANUAL) through the actuator limits and slew rates."""
-        dt = 0.01 if self._last_t_s is None else min(DT_MAX_S, max(DT_MIN_S, nav.t_s - self._last_t_s))
-        self._last_t_s = nav.t_s
+        dt = self._timer.step(nav.t_s)
         if not (math.isfinite(nozzle_rad) and math.isfinite(throttle)):
             nozzle_rad, throttle = 0.0, 0.0
         nozzle, thr, _ = self.mapper.apply(nozzle_rad, throttle, dt)

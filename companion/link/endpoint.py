@@ -16,14 +16,14 @@ from collections.abc import Callable
 from typing import Any
 
 from companion.clock import Clock, WallClock
-from companion.link.dialect import new_codec
+from companion.link.dialect import mav, new_codec
 from companion.link.gcs_presence import GcsPresence
 from companion.link.streams import StreamRates
 from companion.link.tlog import TlogWriter
 
 log = logging.getLogger(__name__)
 
-MAV_TYPE_GCS = 6
+MAV_TYPE_GCS = mav.MAV_TYPE_GCS
 _MIN_FRAME = 8  # pymavlink's HEADER_LEN_V1 + 2: what the parser expects before it has a header
 
 Handler = Callable[["Link", Any], None]

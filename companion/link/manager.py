@@ -2,16 +2,23 @@
 
 Configuration (``[links]``): ``udp_targets`` (QGroundControl 14550, MAVSDK 14540 by default),
 ``tcp_listen`` (5760), ``serial`` (radios) and ``tlog`` (one .tlog per link in
-``<state_dir>/logs``).  Other services register message handlers on :attr:`LinkManager.dispatcher`
-and send with :meth:`LinkManager.broadcast` or a link's own ``send``.  Every link starts with
-the same telemetry rates: the vehicle's (:data:`~companion.link.streams.DEFAULT_RATES_HZ`) plus
-the payloads' status messages (``extra_streams``).
+``<state_dir>/logs``).  The byte transports are :mod:`companion.transport`'s: a
+:class:`~companion.transport.UdpLink` per target (sending to it from an ephemeral port and
+accepting replies from anyone), a :class:`~companion.transport.TcpServer` whose every client
+is a link of its own (removed when the client leaves), and a
+:class:`~companion.transport.SerialLink` per radio (a new link per connection; a vanished
+port is retried every :data:`SERIAL_RETRY_S` seconds, never fatal).  Other services register
+message handlers on :attr:`LinkManager.dispatcher` and send with :meth:`LinkManager.broadcast`
+or a link's own ``send``.  Every link starts with the same telemetry rates: the vehicle's
+(:data:`~companion.link.streams.DEFAULT_RATES_HZ`) plus the payloads' status messages
+(``extra_streams``).
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import logging
 import re
 import time
@@ -21,15 +28,19 @@ from typing import Any
 
 from companion.app import BaseService, Context
 from companion.clock import WallClock
+from companion.config import parse_host_port, parse_serial
 from companion.link import streams
 from companion.link.endpoint import Dispatcher, Link
 from companion.link.gcs_presence import Silence
 from companion.link.tlog import TlogWriter
-from companion.link.transports import SerialPort, TcpServer, UdpTarget
+from companion.transport import ByteLink, SerialLink, TcpServer, UdpLink
 
 log = logging.getLogger(__name__)
 
 TLOG_FLUSH_S = 1.0
+SERIAL_RETRY_S = 2.0
+"""A radio that cannot be opened (or vanished) is tried again this often (vehicle clock)."""
+SERIAL_DEFAULT_BAUD = 57600
 
 
 class LinkManager(BaseService):
@@ -50,10 +61,10 @@ class LinkManager(BaseService):
         self.component_id = component_id
         self.dispatcher = Dispatcher()
         self.links: list[Link] = []
-        self.udp: list[UdpTarget] = []
+        self.udp: list[UdpLink] = []
         self.tcp: TcpServer | None = None
-        self.serial: list[SerialPort] = []
-        self.link_listeners: list[Callable[[Link], None]] = []
+        self.serial: list[SerialLink] = []
+        self._link_of: dict[ByteLink, Link] = {}
         self.wall = WallClock()
         """The wall clock next to ``ctx.clock``: ground stations pace their heartbeats by it."""
         self._tlog_dir: Path | None = None
@@ -69,16 +80,23 @@ class LinkManager(BaseService):
                     component_id=self.component_id, tlog=tlog, wall=self.wall,
                     rates=streams.StreamRates(self.stream_rates_hz, self.stream_groups))
         self.links.append(link)
-        for listener in tuple(self.link_listeners):
-            try:
-                listener(link)
-            except Exception:
-                log.exception("link listener failed")
         return link
 
     def drop_link(self, link: Link) -> None:
         if link in self.links:
             self.links.remove(link)
+
+    def _attach(self, transport: ByteLink, name: str, *, datagram: bool = False) -> None:
+        """A MAVLink link over ``transport`` (one UDP datagram holds whole frames only)."""
+        link = self.make_link(name, transport.write)
+        transport.set_receiver(functools.partial(link.feed, datagram=True) if datagram else link.feed)
+        self._link_of[transport] = link
+
+    def _detach(self, transport: ByteLink) -> None:
+        link = self._link_of.pop(transport, None)
+        if link is not None:
+            self.drop_link(link)
+            link.close()
 
     def broadcast(self, msg: Any) -> None:
         """Send one message on every link (each with its own sequence number)."""
@@ -106,26 +124,29 @@ class LinkManager(BaseService):
         if cfg["links.tlog"]:
             self._tlog_dir = cfg.state_dir() / "logs"
         for target in cfg["links.udp_targets"]:
-            udp = UdpTarget(target, self.make_link)
-            await udp.start()
+            host, port = parse_host_port(target)
+            udp = UdpLink(None, (host, port))
+            await udp.open()
+            self._attach(udp, f"udp:{host}:{port}", datagram=True)
             self.udp.append(udp)
         if cfg["links.tcp_listen"]:
-            self.tcp = TcpServer(cfg["links.tcp_listen"], self.make_link, self.drop_link)
+            self.tcp = TcpServer(parse_host_port(cfg["links.tcp_listen"]),
+                                 on_connect=lambda client: self._attach(client, client.name),
+                                 on_disconnect=self._detach)
             try:
-                await self.tcp.start()
+                await self.tcp.open()
             except OSError as exc:
                 log.error("TCP server %s not started: %s", cfg["links.tcp_listen"], exc)
                 self.tcp = None
         for spec in cfg["links.serial"]:
-            self.serial.append(SerialPort(spec, self.make_link, self.drop_link, self.ctx.clock))
+            device, baud = parse_serial(spec, SERIAL_DEFAULT_BAUD)
+            radio = SerialLink(device, baud, self.ctx.clock, SERIAL_RETRY_S,
+                               on_open=lambda port: self._attach(port, port.name), on_lost=self._detach)
+            self.serial.append(radio)
+            await radio.open()
 
     async def run(self) -> None:
-        async with asyncio.TaskGroup() as tg:
-            for port in self.serial:
-                tg.create_task(port.run(), name=f"serial:{port.device}")
-            tg.create_task(self._flush_tlogs(), name="tlog-flush")
-
-    async def _flush_tlogs(self) -> None:
+        """Flush the telemetry logs (the transports run on the event loop's readers)."""
         while True:
             await asyncio.sleep(TLOG_FLUSH_S)  # wall time: disk flushing, not vehicle behaviour
             for link in tuple(self.links):
@@ -134,9 +155,11 @@ class LinkManager(BaseService):
 
     async def stop(self) -> None:
         for udp in self.udp:
-            await udp.stop()
+            await udp.close()
         if self.tcp is not None:
-            await self.tcp.stop()
+            await self.tcp.close()
+        for radio in self.serial:
+            await radio.close()
         for link in tuple(self.links):
             with contextlib.suppress(Exception):
                 link.close()

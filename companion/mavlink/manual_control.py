@@ -12,14 +12,15 @@ from __future__ import annotations
 from typing import Any
 
 from companion.app import Context
-from companion.control.manual_input import MANUAL_CONTROL_TOPIC, ManualControlInput, from_manual_control
+from companion.control.manual_input import from_manual_control
 from companion.link.endpoint import Link
 from companion.link.manager import LinkManager
+from companion.messages import MANUAL_CONTROL_TOPIC
 
 
 def register_manual_control(ctx: Context, links: LinkManager) -> None:
     """Handle MANUAL_CONTROL on every link of ``links``."""
-    topic = ctx.bus.topic(MANUAL_CONTROL_TOPIC, ManualControlInput)
+    topic = ctx.bus.topic(MANUAL_CONTROL_TOPIC)
 
     def on_manual_control(link: Link, msg: Any) -> None:
         if int(getattr(msg, "target", -1)) != links.system_id:

@@ -17,6 +17,7 @@ from typing import Any
 from companion.actuators.servo import ServoMap
 from companion.app import BaseService, Context
 from companion.clock import periodic
+from companion.guidance.geo import lat_lon_problem
 from companion.link import streams
 from companion.link.dialect import mav
 from companion.link.endpoint import Link
@@ -30,7 +31,7 @@ from companion.mavlink.mission_service import MissionService
 from companion.mavlink.param_service import ParamService
 from companion.mavlink.telemetry import Telemetry
 from companion.mavlink.vehicle_commands import VehicleCommands
-from companion.messages import GuidedTarget, ModeNumber, Severity, StatusText
+from companion.messages import STATUS_TEXT_TOPIC, GuidedTarget, ModeNumber, Severity, StatusText
 from companion.mission.validate import MissionValidator
 from companion.vehicle import Vehicle
 
@@ -75,7 +76,7 @@ class MavlinkService(BaseService):
 
     async def start(self) -> None:
         ctx, vehicle = self.ctx, self.vehicle
-        ctx.bus.topic("status_text", StatusText).add_listener(self._on_status_text)
+        ctx.bus.topic(STATUS_TEXT_TOPIC).add_listener(self._on_status_text)
         vehicle.start_modes()
         vehicle.status(identity.boot_banner())
         profile = "ArduRover-compatible modes" if vehicle.profile == "ardurover" else "generic autopilot"
@@ -158,7 +159,7 @@ class MavlinkService(BaseService):
         if msg.type_mask & mav.POSITION_TARGET_TYPEMASK_X_IGNORE:
             return  # velocity-only targets are not supported on this boat
         lat_deg, lon_deg = msg.lat_int / 1e7, msg.lon_int / 1e7
-        if not (-90 <= lat_deg <= 90 and -180 <= lon_deg <= 180) or (lat_deg == 0 and lon_deg == 0):
+        if lat_lon_problem(lat_deg, lon_deg, zero_is_missing=True) is not None:
             self.vehicle.status("Position target refused: invalid position", Severity.WARNING)
             return
         speed = None

@@ -17,18 +17,20 @@ import math
 from collections.abc import Callable, Mapping
 from typing import Any
 
+from companion.angles import wrap_pi
 from companion.app import Context
 from companion.link import streams as s
 from companion.link.dialect import boat_module, mav
 from companion.mavlink import identity
 from companion.messages import (
-    ActuatorCommand,
+    ACTUATOR_CMD_TOPIC,
+    MODEL_ERROR_TOPIC,
+    NAV_TOPIC,
+    RC_IN_TOPIC,
+    SERVO_OUT_TOPIC,
     FixType,
-    ModelError,
     ModeNumber,
     NavState,
-    RcInput,
-    ServoOutputs,
 )
 from companion.vehicle import Vehicle
 
@@ -56,11 +58,7 @@ def _fresh(ctx: Context, t_s: float | None) -> bool:
 
 
 def _nav(ctx: Context) -> NavState | None:
-    return ctx.bus.topic("nav", NavState).latest()
-
-
-def _wrap_pi(angle_rad: float) -> float:
-    return (angle_rad + math.pi) % (2 * math.pi) - math.pi
+    return ctx.bus.topic(NAV_TOPIC).latest()
 
 
 def _cdeg_0_360(angle_rad: float) -> int:
@@ -81,13 +79,13 @@ def sensor_bits(ctx: Context, vehicle: Vehicle) -> tuple[int, int, int]:
             health |= _SENSORS_INS
         if _fresh(ctx, nav.t_s) and nav.position_valid and nav.fix_type >= FixType.FIX_3D:
             health |= _SENSOR_GPS
-    rc = ctx.bus.topic("rc_in", RcInput).latest()
+    rc = ctx.bus.topic(RC_IN_TOPIC).latest()
     if rc is not None:
         present |= _SENSOR_RC
         enabled |= _SENSOR_RC
         if _fresh(ctx, rc.t_s):
             health |= _SENSOR_RC
-    servo = ctx.bus.topic("servo_out", ServoOutputs).latest()
+    servo = ctx.bus.topic(SERVO_OUT_TOPIC).latest()
     if servo is not None:
         present |= _SENSOR_MOTORS
         enabled |= _SENSOR_MOTORS
@@ -139,14 +137,14 @@ def attitude(ctx: Context, vehicle: Vehicle) -> Any:
     if nav is None:
         return None
     return mav.MAVLink_attitude_message(time_boot_ms(ctx, vehicle), nav.roll_rad, nav.pitch_rad,
-                                        _wrap_pi(nav.heading_rad), 0.0, 0.0, nav.r_radps)
+                                        wrap_pi(nav.heading_rad), 0.0, 0.0, nav.r_radps)
 
 
 def vfr_hud(ctx: Context, vehicle: Vehicle) -> Any:
     nav = _nav(ctx)
     if nav is None:
         return None
-    cmd = ctx.bus.topic("actuator_cmd", ActuatorCommand).latest()
+    cmd = ctx.bus.topic(ACTUATOR_CMD_TOPIC).latest()
     throttle_pct = 0 if cmd is None else round(100 * max(0.0, min(1.0, cmd.throttle)))
     heading_deg = int(math.degrees(nav.heading_rad) % 360.0)
     # airspeed field: speed through the water is not measured; the surge speed u is the closest.
@@ -155,7 +153,7 @@ def vfr_hud(ctx: Context, vehicle: Vehicle) -> Any:
 
 
 def servo_output_raw(ctx: Context, vehicle: Vehicle) -> Any:
-    servo = ctx.bus.topic("servo_out", ServoOutputs).latest()
+    servo = ctx.bus.topic(SERVO_OUT_TOPIC).latest()
     if servo is None:
         return None
     pulses = [int(p) & 0xFFFF for p in servo.pulse_us[:16]] + [0] * max(0, 16 - len(servo.pulse_us))
@@ -163,7 +161,7 @@ def servo_output_raw(ctx: Context, vehicle: Vehicle) -> Any:
 
 
 def rc_channels(ctx: Context, vehicle: Vehicle) -> Any:
-    rc = ctx.bus.topic("rc_in", RcInput).latest()
+    rc = ctx.bus.topic(RC_IN_TOPIC).latest()
     if rc is None:
         return None
     chans = [int(p) & 0xFFFF for p in rc.channels_us[:18]]
@@ -196,8 +194,8 @@ def nav_controller_output(ctx: Context, vehicle: Vehicle) -> Any:
     if target is None:
         return None
     return mav.MAVLink_nav_controller_output_message(
-        0.0, 0.0, round(math.degrees(_wrap_pi(target.nav_bearing_rad))),
-        round(math.degrees(_wrap_pi(target.target_bearing_rad))), min(65535, max(0, round(target.wp_dist_m))),
+        0.0, 0.0, round(math.degrees(wrap_pi(target.nav_bearing_rad))),
+        round(math.degrees(wrap_pi(target.target_bearing_rad))), min(65535, max(0, round(target.wp_dist_m))),
         0.0, target.speed_error_mps, target.xtrack_error_m)
 
 
@@ -228,7 +226,7 @@ def usv_model_status(ctx: Context, vehicle: Vehicle) -> Any:
     usv = boat_module()
     if usv is None:
         return None
-    topic = ctx.bus.topic("model_error", ModelError)
+    topic = ctx.bus.topic(MODEL_ERROR_TOPIC)
     err = topic.latest()
     if err is None:
         return usv.MAVLink_usv_model_status_message(time_boot_ms(ctx, vehicle), *([math.nan] * 6), math.nan,

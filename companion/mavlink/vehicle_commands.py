@@ -14,6 +14,8 @@ from typing import Any
 from companion.actuators.overrides import N_RELAYS, override_refusal, relay_channel
 from companion.actuators.servo import N_CHANNELS, ServoMap
 from companion.clock import Clock
+from companion.guidance.geo import lat_lon_problem
+from companion.link import streams
 from companion.link.dialect import mav
 from companion.link.endpoint import Link
 from companion.mavlink import identity
@@ -29,12 +31,6 @@ SERVO_CHANNELS = 16
 SERVO_MIN_US = 500
 SERVO_MAX_US = 2500
 
-MSG_PROTOCOL_VERSION = 300
-MSG_COMPONENT_INFORMATION = 395
-MSG_COMPONENT_METADATA = 397
-MSG_AVAILABLE_MODES = 435
-MSG_AUTOPILOT_VERSION = 148
-MSG_HOME_POSITION = 242
 
 
 def _is_int(x: float) -> bool:
@@ -45,16 +41,6 @@ def _reply(cmd: CommandRequest, msg: Any) -> None:
     link = cmd.link
     if isinstance(link, Link):
         link.send(msg)
-
-
-def _valid_lat_lon(lat_deg: float, lon_deg: float) -> str | None:
-    if not (math.isfinite(lat_deg) and -90 <= lat_deg <= 90):
-        return f"latitude {lat_deg:g} is not valid"
-    if not (math.isfinite(lon_deg) and -180 <= lon_deg <= 180):
-        return f"longitude {lon_deg:g} is not valid"
-    if lat_deg == 0 and lon_deg == 0:
-        return "position 0,0 (missing coordinates)"
-    return None
 
 
 def _speed_or_none(speed_mps: float, what: str) -> tuple[float | None, str | None]:
@@ -139,9 +125,8 @@ class VehicleCommands:
     async def do_reposition(self, cmd: CommandRequest) -> CommandResult:
         vehicle = self.vehicle
         lat_deg, lon_deg = cmd.lat_deg, cmd.lon_deg
-        problem = _valid_lat_lon(lat_deg, lon_deg)
-        if problem:
-            return CommandResult.denied(f"Reposition refused: {problem}")
+        if (bad := lat_lon_problem(lat_deg, lon_deg, zero_is_missing=True)) is not None:
+            return CommandResult.denied(f"Reposition refused: {bad.text}")
         speed, problem = _speed_or_none(cmd.param1, "Reposition refused")
         if problem:
             return CommandResult.denied(problem)
@@ -179,9 +164,8 @@ class VehicleCommands:
                 return CommandResult.denied("Set home refused: no position estimate")
             reason = vehicle.set_home(nav.lat_deg, nav.lon_deg, nav.alt_m)
         else:
-            problem = _valid_lat_lon(cmd.lat_deg, cmd.lon_deg)
-            if problem:
-                return CommandResult.denied(f"Set home refused: {problem}")
+            if (bad := lat_lon_problem(cmd.lat_deg, cmd.lon_deg, zero_is_missing=True)) is not None:
+                return CommandResult.denied(f"Set home refused: {bad.text}")
             alt = cmd.param7 if math.isfinite(cmd.param7) else 0.0
             reason = vehicle.set_home(cmd.lat_deg, cmd.lon_deg, alt)
         return CommandResult.accepted() if reason is None else CommandResult.denied(reason)
@@ -230,18 +214,18 @@ class VehicleCommands:
         vehicle = self.vehicle
         system_id = self.system_id
         msgs: list[Any]
-        if msg_id == MSG_AUTOPILOT_VERSION:
+        if msg_id == streams.AUTOPILOT_VERSION:
             msgs = [identity.autopilot_version(vehicle, system_id)]
-        elif msg_id == MSG_AVAILABLE_MODES:
+        elif msg_id == streams.AVAILABLE_MODES:
             all_modes = identity.available_modes(vehicle)
             index = int(param2) if _is_int(param2) else 0
             if index > len(all_modes) or index < 0:
                 return CommandResult.denied(f"AVAILABLE_MODES: no mode index {index}")
             msgs = all_modes if index == 0 else all_modes[index - 1:index]
-        elif msg_id in (MSG_PROTOCOL_VERSION, MSG_COMPONENT_INFORMATION, MSG_COMPONENT_METADATA) \
-                or not self.telemetry.known(msg_id):
-            # PROTOCOL_VERSION is not in pymavlink's message set (QGC then relies on the MAVLink 2
-            # frames it already sees); component metadata is not served: clean NACK for all three.
+        elif not self.telemetry.known(msg_id):
+            # Among others PROTOCOL_VERSION (300), which pymavlink's message set lacks (QGC then relies
+            # on the MAVLink 2 frames it already sees), and COMPONENT_INFORMATION / COMPONENT_METADATA
+            # (395/397), not served: a clean NACK.
             return CommandResult.unsupported()
         else:
             msg = self.telemetry.build(msg_id)
@@ -261,10 +245,10 @@ class VehicleCommands:
         return self.send_message_now(cmd, int(cmd.param1), cmd.param2)
 
     async def get_home_position(self, cmd: CommandRequest) -> CommandResult:
-        return self.send_message_now(cmd, MSG_HOME_POSITION)
+        return self.send_message_now(cmd, streams.HOME_POSITION)
 
     async def request_autopilot_capabilities(self, cmd: CommandRequest) -> CommandResult:
-        return self.send_message_now(cmd, MSG_AUTOPILOT_VERSION)
+        return self.send_message_now(cmd, streams.AUTOPILOT_VERSION)
 
     async def set_message_interval(self, cmd: CommandRequest) -> CommandResult:
         msg_id, interval_us = cmd.param1, cmd.param2

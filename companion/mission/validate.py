@@ -24,6 +24,7 @@ import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
+from companion.guidance.geo import Coordinate, lat_lon_problem
 from companion.mission import items as mi
 from companion.mission.items import MissionItem, MissionType
 
@@ -106,12 +107,9 @@ def _check_position(item: MissionItem) -> ItemProblem | None:
     lat_deg, lon_deg = item.lat_deg, item.lon_deg
     if not item.is_global:
         return ItemProblem(UNSUPPORTED_FRAME, f"item {item.seq}: frame {item.frame} is not a global frame")
-    if not (_finite(lat_deg) and -90.0 <= lat_deg <= 90.0):
-        return ItemProblem(INVALID_PARAM5_X, f"item {item.seq}: latitude {lat_deg} outside [-90, 90]")
-    if not (_finite(lon_deg) and -180.0 <= lon_deg <= 180.0):
-        return ItemProblem(INVALID_PARAM6_Y, f"item {item.seq}: longitude {lon_deg} outside [-180, 180]")
-    if item.x == 0 and item.y == 0:
-        return ItemProblem(INVALID_PARAM5_X, f"item {item.seq}: position 0,0 (missing coordinates)")
+    if (bad := lat_lon_problem(lat_deg, lon_deg, zero_is_missing=True)) is not None:
+        code = INVALID_PARAM6_Y if bad.coordinate is Coordinate.LONGITUDE else INVALID_PARAM5_X
+        return ItemProblem(code, f"item {item.seq}: {bad.text}")
     if math.isinf(item.z):
         return ItemProblem(INVALID_PARAM7, f"item {item.seq}: altitude {item.z} is not finite")
     return None

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 
+from companion.angles import wrap_2pi
 from companion.control.target import ControlRequest, ControlTarget
 from companion.messages import ModeNumber, NavState
 from companion.modes.base import StandardMode, requires_position
@@ -49,7 +50,7 @@ class CruiseMode(NavMode):
         inp = host.pilot_input()
         if inp is not None:
             turn_max = math.radians(host.params.get("USV_TURN_MAX"))
-            self.heading_rad = (self.heading_rad + inp.steering * turn_max * dt) % (2 * math.pi)
+            self.heading_rad = wrap_2pi(self.heading_rad + inp.steering * turn_max * dt)
         override = host.speed_override_mps
         if override is not None and override != self._override and math.isfinite(override):
             self.speed_mps = max(0.0, override)

@@ -13,12 +13,10 @@ It starts by keeping station and switches to orbiting after about 3 s (net, leak
 creep signature: the jet idles, the bow is on the station heading (within 45 degrees) and the
 boat still makes headway over ground (more than 0.2 m/s), so the current cannot hold it back.
 Distance from the point is not evidence: a boat that must turn round into a strong current, or
-that motors back up to its point, is outside LOIT_RADIUS without the current being weak (the
-earlier rule, outside while idling or moving ahead, sent the boat orbiting in a 1.2 m/s current
-and it was swept 7 m off).  It switches back when the orbit is pushed off its circle by more
-than its radius for about 8 s.  Either way it holds the
-point actively, unlike ArduPilot Rover, which drifts to the edge of LOIT_RADIUS and drives back
-(issue 20842).
+that motors back up to its point, is outside LOIT_RADIUS without the current being weak
+(``docs/tuning.md``).  It switches back when the orbit is pushed off its circle by more than its
+radius for about 8 s.  Either way it holds the point actively, unlike ArduPilot Rover, which
+drifts to the edge of LOIT_RADIUS and drives back (issue 20842).
 """
 
 from __future__ import annotations

@@ -13,9 +13,10 @@ from __future__ import annotations
 import math
 from typing import Protocol
 
+from companion.clock import StepTimer
 from companion.control.target import ControlRequest, ControlTarget
 from companion.guidance.circle import CircleTracker
-from companion.guidance.geo import LocalFrame, distance_bearing, wrap_pi
+from companion.guidance.geo import LocalFrame, distance_bearing, wrap_2pi, wrap_pi
 from companion.guidance.los import LosFollower, LosType
 from companion.guidance.params import circle_gains, leg_config, los_gains, station_gains
 from companion.guidance.station import StationKeeper
@@ -151,19 +152,18 @@ class NavMode(Mode):
     def __init__(self) -> None:
         super().__init__()
         self.task: Task | None = None
-        self._last_t_s: float | None = None
+        self._timer = StepTimer()
 
     def requirements(self, host: ModeHost) -> str | None:
         return requires_position(host)
 
     def enter(self, host: ModeHost) -> None:
-        self._last_t_s = None
+        self._timer.reset()
         host.control.reset()
 
     def dt(self, nav: NavState) -> float:
-        dt = 0.01 if self._last_t_s is None else min(0.1, max(0.001, nav.t_s - self._last_t_s))
-        self._last_t_s = nav.t_s
-        return dt
+        """This period's step (sensor time, clamped)."""
+        return self._timer.step(nav.t_s)
 
     def run_task(self, host: ModeHost, nav: NavState, task: Task,
                  dt_s: float | None = None) -> ControlRequest:
@@ -177,7 +177,7 @@ class NavMode(Mode):
         bearing = distance_bearing(north - here_n, east - here_e)[1]
         self.nav_target = NavTarget(
             lat_deg=point[0], lon_deg=point[1], speed_mps=max(0.0, target.speed_mps), wp_dist_m=dist_m,
-            target_bearing_rad=bearing, nav_bearing_rad=target.course_rad % (2 * math.pi),
+            target_bearing_rad=bearing, nav_bearing_rad=wrap_2pi(target.course_rad),
             xtrack_error_m=task.cross_track_m,
             speed_error_mps=target.speed_mps - nav.u_mps)
         return ControlRequest.follow(target, ignition_on=host.armed)

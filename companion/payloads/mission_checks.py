@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 
+from companion.guidance.geo import Coordinate, lat_lon_problem
 from companion.mission import validate as v
 from companion.mission.items import MissionItem
 from companion.params import ParamDef
@@ -31,9 +32,7 @@ def in_range(x: float, bounds: tuple[float, float]) -> bool:
 
 def check_coordinates(item: MissionItem) -> v.ItemProblem | None:
     """Finite coordinates on the globe (also for the float MISSION_ITEM encoding)."""
-    lat_deg, lon_deg = item.lat_deg, item.lon_deg
-    if not (math.isfinite(lat_deg) and -90.0 <= lat_deg <= 90.0):
-        return v.ItemProblem(v.INVALID_PARAM5_X, f"item {item.seq}: latitude {lat_deg} is not valid")
-    if not (math.isfinite(lon_deg) and -180.0 <= lon_deg <= 180.0):
-        return v.ItemProblem(v.INVALID_PARAM6_Y, f"item {item.seq}: longitude {lon_deg} is not valid")
-    return None
+    if (bad := lat_lon_problem(item.lat_deg, item.lon_deg)) is None:
+        return None
+    code = v.INVALID_PARAM6_Y if bad.coordinate is Coordinate.LONGITUDE else v.INVALID_PARAM5_X
+    return v.ItemProblem(code, f"item {item.seq}: {bad.text}")

@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING, Any
 from companion.actuators.servo import ServoChannel
 from companion.app import BaseService, Context
 from companion.mavlink.commands import CommandHandler, CommandRegistry
-from companion.messages import Severity, StatusText
+from companion.messages import STATUS_TEXT_TOPIC, Severity, StatusText
 from companion.params import ParamDef
 from companion.payloads.samplelog import SAMPLE_LOG_NAME, SampleLog
 from companion.payloads.topics import PayloadOutputs
@@ -120,7 +120,7 @@ class PayloadEnv:
 
     def announce(self, text: str, severity: Severity = Severity.INFO) -> None:
         """A STATUSTEXT for the operator (one chunk)."""
-        self.ctx.bus.topic("status_text", StatusText).publish(
+        self.ctx.bus.topic(STATUS_TEXT_TOPIC).publish(
             StatusText(t_s=self.ctx.clock.now_s(), severity=severity, text=text[:STATUSTEXT_CHARS]))
 
 

@@ -23,7 +23,7 @@ import sqlite3
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-from companion.payloads.topics import BOTTLE_COUNT
+from companion.messages import BOTTLE_COUNT
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS samples (

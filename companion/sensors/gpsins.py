@@ -20,9 +20,21 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 
+from companion.angles import wrap_2pi
 from companion.bus import Bus
 from companion.clock import Clock
-from companion.messages import ControlSource, EngineState, FixType, NavState, PayloadSensors, RcInput
+from companion.guidance.geo import valid_lat_lon
+from companion.messages import (
+    ENGINE_TOPIC,
+    PAYLOAD_SENSORS_TOPIC,
+    RC_IN_TOPIC,
+    ControlSource,
+    EngineState,
+    FixType,
+    NavState,
+    PayloadSensors,
+    RcInput,
+)
 from companion.sensors.nmea import LineFramer
 
 TWO_PI = 2.0 * math.pi
@@ -42,9 +54,9 @@ class GpsInsParser:
         self.field_errors = 0
         self.nav_samples = 0
         self._gyro_z_degps = 0.0
-        self._engine = bus.topic("engine", EngineState)
-        self._rc = bus.topic("rc_in", RcInput)
-        self._payload = bus.topic("payload_sensors", PayloadSensors)
+        self._engine = bus.topic(ENGINE_TOPIC)
+        self._rc = bus.topic(RC_IN_TOPIC)
+        self._payload = bus.topic(PAYLOAD_SENSORS_TOPIC)
         self._payload_type = PayloadSensors
         self._handlers: dict[str, Callable[[list[str]], None]] = {
             "GPFPD": self._gpfpd, "GTIMU": self._gtimu, "PUSVE": self._pusve,
@@ -81,16 +93,16 @@ class GpsInsParser:
             raise ValueError("heading out of range")
         ve, vn = float(f[9]), float(f[10])
         lat, lon = float(f[6]), float(f[7])
-        if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
+        if not valid_lat_lon(lat, lon):
             raise ValueError("position out of range")
         status = int(f[15], 16)
         gnss_ok = bool(status & 0x01)
         c, s = math.cos(heading), math.sin(heading)
         # positional, in NavState's field order (keywords cost more on this 100 Hz path)
-        nav = NavState(self.clock.now_s(), lat, lon, float(f[8]), heading % TWO_PI, math.radians(float(f[5])),
-                       math.radians(float(f[4])), vn, ve, c * vn + s * ve, -s * vn + c * ve,
-                       -math.radians(self._gyro_z_degps), FixType.FIX_3D if gnss_ok else FixType.NO_FIX,
-                       int(f[13]), gnss_ok, True)
+        nav = NavState(self.clock.now_s(), lat, lon, float(f[8]), wrap_2pi(heading),
+                       math.radians(float(f[5])), math.radians(float(f[4])), vn, ve,
+                       c * vn + s * ve, -s * vn + c * ve, -math.radians(self._gyro_z_degps),
+                       FixType.FIX_3D if gnss_ok else FixType.NO_FIX, int(f[13]), gnss_ok, True)
         self.nav_samples += 1
         self.on_nav(nav, f[2])
 

@@ -38,6 +38,7 @@ def test_active_model_follows_the_square_in_cross_current() -> None:
     assert r["whole_max_m"] <= 2.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [4, 5, 6])
 def test_active_model_follows_the_whole_square_on_held_out_seeds(seed: int) -> None:
     """Seeds 1-3 are the ones the gains were tuned on; these are other days' waves."""

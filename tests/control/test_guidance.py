@@ -9,7 +9,15 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from companion.guidance.circle import CircleTracker
-from companion.guidance.geo import LocalFrame, distance_bearing, valid_lat_lon, wrap_pi
+from companion.guidance.geo import (
+    Coordinate,
+    LocalFrame,
+    distance_bearing,
+    distance_m,
+    lat_lon_problem,
+    valid_lat_lon,
+    wrap_pi,
+)
 from companion.guidance.los import LosFollower, LosGains, LosType, leg_errors, lookahead
 from companion.guidance.station import StationKeeper
 from companion.guidance.waypoints import LegConfig, LegNavigator
@@ -179,3 +187,21 @@ def test_station_keeping_points_into_current_and_stays_close() -> None:
     # bow into the current (current towards the south-east-ish: bow points north-west-ish)
     into = math.atan2(-current[1], -current[0])
     assert abs(wrap_pi(keeper.heading_rad - into)) < math.radians(20)
+
+
+def test_distance_between_positions_is_the_local_frame_distance() -> None:
+    frame = LocalFrame(41.77, 123.43)
+    lat, lon = frame.to_lat_lon(30.0, -40.0)
+    assert distance_m(41.77, 123.43, lat, lon) == pytest.approx(50.0, abs=0.01)
+    assert distance_m(lat, lon, 41.77, 123.43) == pytest.approx(50.0, abs=0.01)
+    assert distance_m(0.0, 179.99999, 0.0, -179.99999) == pytest.approx(2.2, abs=0.1)  # across the date line
+
+
+def test_position_validator_names_the_wrong_coordinate() -> None:
+    assert lat_lon_problem(41.77, 123.43) is None and lat_lon_problem(0.0, 0.0) is None
+    lat = lat_lon_problem(float("nan"), 0.0)
+    assert lat is not None and lat.coordinate is Coordinate.LATITUDE and "latitude nan" in lat.text
+    lon = lat_lon_problem(45.0, -180.5)
+    assert lon is not None and lon.coordinate is Coordinate.LONGITUDE and "outside [-180, 180]" in lon.text
+    zero = lat_lon_problem(0.0, 0.0, zero_is_missing=True)
+    assert zero is not None and "missing coordinates" in zero.text

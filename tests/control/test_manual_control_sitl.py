@@ -17,15 +17,20 @@ import pytest
 from companion.bus import Bus
 from companion.control.manual_input import (
     AXIS_UNUSED,
-    MANUAL_CONTROL_TOPIC,
-    ManualControlInput,
     from_manual_control,
     pilot_input,
     rc_steering,
     rc_throttle,
 )
 from companion.link.dialect import mav
-from companion.messages import ModeNumber, NavState, RcInput
+from companion.messages import (
+    MANUAL_CONTROL_TOPIC,
+    NAV_TOPIC,
+    RC_IN_TOPIC,
+    ModeNumber,
+    NavState,
+    RcInput,
+)
 from sim_bridge.simboat import CH_NOZZLE, CH_THROTTLE
 from sim_bridge.sitl import SitlHarness
 from tests.mavlink.gcs import AsyncGcs
@@ -43,7 +48,7 @@ class Joystick:
         self.gcs, self.target = gcs, target
         self.on, self.y, self.z = True, 0, 0
         self._next_s = 0.0
-        h.ctx.bus.topic("nav", NavState).add_listener(self._stage)  # a joystick on simulated time
+        h.ctx.bus.topic(NAV_TOPIC).add_listener(self._stage)  # a joystick on simulated time
 
     def _stage(self, nav: NavState) -> None:
         if self.on and nav.t_s >= self._next_s:
@@ -148,8 +153,8 @@ def test_rc_sticks() -> None:
 
 def test_fresh_ground_station_input_wins_then_the_receiver_then_nothing() -> None:
     bus = Bus()
-    bus.topic(MANUAL_CONTROL_TOPIC, ManualControlInput).publish(from_manual_control(10.0, -400, 500))
-    bus.topic("rc_in", RcInput).publish(RcInput(10.5, (1900, 1500, 1500)))
+    bus.topic(MANUAL_CONTROL_TOPIC).publish(from_manual_control(10.0, -400, 500))
+    bus.topic(RC_IN_TOPIC).publish(RcInput(10.5, (1900, 1500, 1500)))
     gcs = pilot_input(bus, 10.8, timeout_s=1.0)
     assert gcs is not None and (gcs.source, gcs.steering, gcs.throttle) == ("gcs", -0.4, 0.5)
     rc = pilot_input(bus, 11.2, timeout_s=1.0)

@@ -224,6 +224,7 @@ def _mid_leg_cross_track_m(track: list[tuple[float, float]], a: tuple[float, flo
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [2, 3])
 async def test_auto_square_in_cross_current_holds_the_middle_of_every_leg(seed: int) -> None:
     """The issue's square, flown as an AUTO mission on the full stack (active model, shipped

@@ -10,10 +10,10 @@ from pathlib import Path
 
 from companion.app import Context
 from companion.bus import Bus
-from companion.clock import SimClock
+from companion.clock import Clock, SimClock
 from companion.config import default_config
 from companion.control.system import ControlSystem
-from companion.messages import FixType, NavState
+from companion.messages import NAV_TOPIC, FixType, NavState
 from companion.mission.cursor import MissionCursor
 from companion.mission.store import MissionStore
 from companion.modes.base import Mode
@@ -54,7 +54,7 @@ def nav_sample(t_s: float, *, lat_deg: float = HOME_LAT_DEG, lon_deg: float = HO
 def publish_nav(ctx: Context, **kwargs: object) -> NavState:
     """A nav sample on the bus of a plain context (what the vehicle observes)."""
     nav = nav_sample(ctx.clock.now_s(), **kwargs)  # type: ignore[arg-type]
-    ctx.bus.topic("nav", NavState).publish(nav)
+    ctx.bus.topic(NAV_TOPIC).publish(nav)
     return nav
 
 
@@ -68,9 +68,10 @@ def feed_nav(services: Services, **kwargs: object) -> NavState:
 @contextlib.asynccontextmanager
 async def running_vehicle(state_dir: Path, udp_ports: list[int], *, tcp_port: int | None = None,
                           profile: str = "ardurover", serial: list[str] | None = None,
-                          ) -> AsyncIterator[Services]:
-    """The companion on a wall clock without GPS-INS or servo link, sending to ``udp_ports`` on
-    loopback; the test feeds navigation samples (:func:`feed_nav`, :func:`feeding_nav`)."""
+                          clock: Clock | None = None) -> AsyncIterator[Services]:
+    """The companion without GPS-INS or servo link, sending to ``udp_ports`` on loopback, on
+    ``clock`` (default: the wall clock; a :class:`SimClock` moves only while :func:`paced` drives
+    it); the test feeds navigation samples (:func:`feed_nav`, :func:`feeding_nav`)."""
     from companion.app import Application
     from companion.clock import WallClock
     from companion.runtime import build_companion, build_context
@@ -81,7 +82,7 @@ async def running_vehicle(state_dir: Path, udp_ports: list[int], *, tcp_port: in
         "links.tcp_listen": f"127.0.0.1:{tcp_port}" if tcp_port else "",
         "links.serial": serial or [],
     })
-    services = build_companion(build_context(config, WallClock()))
+    services = build_companion(build_context(config, clock or WallClock()))
     services.estimator.warm_up()  # the first sample would stall the wall-clock test for seconds
     app = Application(services.in_start_order())
     task = asyncio.create_task(app.run(install_signal_handlers=False))
@@ -94,6 +95,26 @@ async def running_vehicle(state_dir: Path, udp_ports: list[int], *, tcp_port: in
     finally:
         app.request_stop()
         await asyncio.wait_for(task, 5.0)
+
+
+@contextlib.asynccontextmanager
+async def paced(clock: SimClock, step_s: float = 0.01) -> AsyncIterator[SimClock]:
+    """Advance ``clock`` by exactly ``step_s`` per ``step_s`` of wall time (never more: on a busy
+    machine simulated time falls behind, it does not jump), so the vehicle's periods and rates are
+    exact in its own time stamps while ground stations talk to it over real sockets."""
+
+    async def pace() -> None:
+        while True:
+            await asyncio.sleep(step_s)
+            clock.advance_to(clock.now_s() + step_s)
+
+    pacer = asyncio.create_task(pace())
+    try:
+        yield clock
+    finally:
+        pacer.cancel()
+        with contextlib.suppress(asyncio.CancelledError):
+            await pacer
 
 
 @contextlib.asynccontextmanager

@@ -18,7 +18,7 @@ import pytest
 
 from companion.link.dialect import mav
 from companion.mavlink.params import PARAMS
-from companion.messages import ModeNumber, NavState
+from companion.messages import NAV_TOPIC, ModeNumber, NavState
 from sim_bridge.simboat import CH_IGNITION
 from tests.mavlink.sitl_gcs import run_until_done, sitl_with_gcs
 
@@ -44,7 +44,7 @@ async def test_gcs_loss_rtl_then_engine_stop_then_nothing_restored() -> None:
                 heartbeats["next_s"] = nav.t_s + 1.0
                 gcs.heartbeat()
 
-        h.ctx.bus.topic("nav", NavState).add_listener(gcs_heartbeat)  # a GCS on simulated time
+        h.ctx.bus.topic(NAV_TOPIC).add_listener(gcs_heartbeat)  # a GCS on simulated time
         await h.run_for(2.0)
         vehicle = h.services.vehicle
         ack = await run_until_done(h, gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1))
@@ -112,7 +112,7 @@ async def test_gcs_loss_while_returning_home_keeps_rtl_until_home_and_still_stop
                 heartbeats["next_s"] = nav.t_s + 1.0
                 gcs.heartbeat()
 
-        h.ctx.bus.topic("nav", NavState).add_listener(gcs_heartbeat)
+        h.ctx.bus.topic(NAV_TOPIC).add_listener(gcs_heartbeat)
         await h.run_for(2.0)
         vehicle = h.services.vehicle
         assert (await run_until_done(h, gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1))).result == 0

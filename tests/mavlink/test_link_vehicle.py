@@ -1,19 +1,46 @@
-"""The MAVLink vehicle in process, seen from a pymavlink ground station on loopback UDP."""
+"""The MAVLink vehicle in process, seen from a pymavlink ground station on loopback UDP.
+
+The vehicle runs on a simulation clock paced by the test (:func:`tests.mavlink.helpers.paced`),
+so rates and periods are checked in the vehicle's own time stamps, whatever the machine's load.
+"""
 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import subprocess
 import sys
+from collections.abc import AsyncIterator
 from pathlib import Path
+from typing import Any
 
+from companion.clock import SimClock
 from companion.link.dialect import mav
 from companion.mavlink.commands import CommandRequest, CommandResult
+from companion.runtime import Services
 from tests.mavlink.gcs import AsyncGcs, free_port
-from tests.mavlink.helpers import feed_nav, feeding_nav, running_vehicle
+from tests.mavlink.helpers import feed_nav, feeding_nav, paced
+from tests.mavlink.helpers import running_vehicle as wall_clock_vehicle
 
 PREARM = mav.MAV_SYS_STATUS_PREARM_CHECK
 GPS = mav.MAV_SYS_STATUS_SENSOR_GPS
+
+
+@contextlib.asynccontextmanager
+async def running_vehicle(state_dir: Path, udp_ports: list[int]) -> AsyncIterator[Services]:
+    """The companion on a paced simulation clock."""
+    async with paced(SimClock()) as clock, wall_clock_vehicle(state_dir, udp_ports, clock=clock) as services:
+        yield services
+
+
+async def one_vehicle_second(gcs: AsyncGcs, msg_type: str) -> list[Any]:
+    """The ``msg_type`` messages stamped (``time_boot_ms``, vehicle clock) within one second of
+    vehicle time, starting with the next one received."""
+    first = await gcs.wait(msg_type)
+    end_ms = first.time_boot_ms + 1000
+    start = next(i for i in range(len(gcs.received) - 1, -1, -1) if gcs.received[i] is first)
+    await gcs.wait(msg_type, lambda m: m.time_boot_ms >= end_ms, timeout_s=10.0)
+    return [m for m in gcs.received[start:] if m.get_type() == msg_type and m.time_boot_ms < end_ms]
 
 
 async def test_heartbeat_identity_and_health(state_dir: Path) -> None:
@@ -40,7 +67,7 @@ async def test_boot_statustext_names_product(state_dir: Path) -> None:
     port = free_port()
     async with AsyncGcs(port) as gcs, running_vehicle(state_dir, [port]):
         await gcs.connect()
-        ack = await gcs.command(mav.MAV_CMD_REQUEST_MESSAGE, 148)
+        ack = await gcs.command(mav.MAV_CMD_REQUEST_MESSAGE, mav.MAVLINK_MSG_ID_AUTOPILOT_VERSION)
         assert ack.result == mav.MAV_RESULT_ACCEPTED
         ver = next(m for m in gcs.received if m.get_type() == "AUTOPILOT_VERSION")
         assert ver.capabilities & mav.MAV_PROTOCOL_CAPABILITY_MISSION_INT
@@ -75,9 +102,11 @@ async def test_modes_set_refuse_and_report(state_dir: Path) -> None:
         ack = await gcs.command(mav.MAV_CMD_DO_SET_MODE, 1, 77)
         assert ack.result == mav.MAV_RESULT_DENIED
         await reason
-        ack = await gcs.command(mav.MAV_CMD_REQUEST_MESSAGE, 435)
+        last_mode = asyncio.ensure_future(
+            gcs.wait("AVAILABLE_MODES", lambda m: m.mode_index == m.number_modes))
+        ack = await gcs.command(mav.MAV_CMD_REQUEST_MESSAGE, mav.MAVLINK_MSG_ID_AVAILABLE_MODES)
         assert ack.result == mav.MAV_RESULT_ACCEPTED
-        await asyncio.sleep(0.1)
+        await last_mode
         names = {m.mode_name for m in gcs.received if m.get_type() == "AVAILABLE_MODES"}
         assert {"MANUAL", "HOLD"} <= names
         cur = await gcs.wait("CURRENT_MODE", timeout_s=2.0)
@@ -102,14 +131,16 @@ async def test_unknown_nan_and_garbage_never_kill(state_dir: Path) -> None:
 
 
 async def test_long_command_in_progress_then_result(state_dir: Path) -> None:
-    async def slow(cmd: CommandRequest) -> CommandResult:
-        await asyncio.sleep(0.5)
-        cmd.progress(50)
-        await asyncio.sleep(0.1)
-        return CommandResult.accepted()
-
     port = free_port()
     async with AsyncGcs(port) as gcs, running_vehicle(state_dir, [port]) as services:
+        clock = services.ctx.clock
+
+        async def slow(cmd: CommandRequest) -> CommandResult:
+            await clock.sleep(0.5)
+            cmd.progress(50)
+            await clock.sleep(0.1)
+            return CommandResult.accepted()
+
         services.commands.register(31013, slow)
         await gcs.connect()
         start = len(gcs.received)
@@ -125,13 +156,13 @@ async def test_stream_rates_per_link(state_dir: Path) -> None:
     async with AsyncGcs(a) as gcs_a, AsyncGcs(b) as gcs_b, running_vehicle(state_dir, [a, b]):
         await gcs_a.connect()
         await gcs_b.connect()
-        ack = await gcs_a.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, 0 + 2, 50_000)  # SYSTEM_TIME 20 Hz
+        system_time = mav.MAVLINK_MSG_ID_SYSTEM_TIME
+        ack = await gcs_a.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, system_time, 50_000)  # 20 Hz
         assert ack.result == mav.MAV_RESULT_ACCEPTED
-        ack = await gcs_b.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, 2, -1)  # off on link b
+        ack = await gcs_b.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, system_time, -1)  # off on link b
         assert ack.result == mav.MAV_RESULT_ACCEPTED
-        na, nb = len(gcs_a.received), len(gcs_b.received)
-        await asyncio.sleep(1.0)
-        assert gcs_a.count("SYSTEM_TIME", na) >= 15
+        nb = len(gcs_b.received)
+        assert 19 <= len(await one_vehicle_second(gcs_a, "SYSTEM_TIME")) <= 21
         assert gcs_b.count("SYSTEM_TIME", nb) == 0
         gcs_b.send(mav.MAVLink_request_data_stream_message(1, 1, 11, 10, 1))  # VFR_HUD group at 10 Hz
         ack = await gcs_b.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, 999, 1000)
@@ -143,7 +174,6 @@ async def test_tlog_readable_by_mavlogdump(state_dir: Path) -> None:
     async with AsyncGcs(port) as gcs, running_vehicle(state_dir, [port]):
         await gcs.connect()
         await gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1)
-        await asyncio.sleep(1.2)
     logs = sorted((state_dir / "logs").glob("*.tlog"))
     assert logs, "no tlog written"
     out = subprocess.run([sys.executable, "-m", "pymavlink.tools.mavlogdump", "--types",

@@ -17,7 +17,7 @@ import pytest
 
 from companion.guidance.geo import LocalFrame
 from companion.link.dialect import mav
-from companion.messages import StatusText
+from companion.messages import STATUS_TEXT_TOPIC
 from companion.mission import items as mi
 from companion.mission.convention import HOME_MATCH_M, Convention, classify
 from companion.mission.items import MissionItem, MissionType
@@ -112,7 +112,7 @@ async def test_each_client_downloads_what_it_uploaded_and_progress_counts_real_i
         publish_nav(ctx)  # sets home
         vehicle = services.vehicle
         texts: list[str] = []
-        ctx.bus.topic("status_text", StatusText).add_listener(lambda s: texts.append(s.text))
+        ctx.bus.topic(STATUS_TEXT_TOPIC).add_listener(lambda s: texts.append(s.text))
 
         plan = mavsdk_plan(4)
         assert (await upload(gcs, plan)).type == mav.MAV_MISSION_ACCEPTED

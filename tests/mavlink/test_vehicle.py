@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from companion.messages import FixType, ModeNumber, StatusText
+from companion.messages import STATUS_TEXT_TOPIC, FixType, ModeNumber
 from companion.mission.items import MissionItem, MissionType
 from companion.modes.base import Mode
 from companion.modes.host import ModeHost
@@ -14,7 +14,7 @@ def test_arming_refused_without_position_then_accepted() -> None:
     ctx = make_ctx()
     vehicle = make_vehicle(ctx)
     texts: list[str] = []
-    ctx.bus.topic("status_text", StatusText).add_listener(lambda s: texts.append(s.text))
+    ctx.bus.topic(STATUS_TEXT_TOPIC).add_listener(lambda s: texts.append(s.text))
     reason = vehicle.arm()
     assert reason is not None and "navigation" in reason
     assert not vehicle.armed

@@ -16,7 +16,7 @@ from companion.estimation.service import (
     load_companion_ukf_backend,
     load_companion_ukf_settings,
 )
-from companion.messages import ActuatorCommand, CurrentEstimate, NavState
+from companion.messages import NAV_TOPIC, ActuatorCommand, CurrentEstimate, NavState
 
 
 def _nav(t: float, u: float) -> NavState:
@@ -79,7 +79,7 @@ def _estimate_in_sitl(current: str, seconds: float = 150.0) -> CurrentEstimate:
                                                 nozzle_rad=0.4 * math.sin(2 * math.pi * nav.t_s / 20.0)))
             # the estimator sees each sample with the command applied since the previous one
             pipeline = h.pipeline
-            h.ctx.bus.topic("nav", NavState).add_listener(lambda nav: stage.step(nav, pipeline.last_command))
+            h.ctx.bus.topic(NAV_TOPIC).add_listener(lambda nav: stage.step(nav, pipeline.last_command))
             await h.run_for(seconds)
             est = stage.current
             assert est is not None

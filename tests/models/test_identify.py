@@ -27,6 +27,7 @@ def _record(duration_s: float = 90.0, noise: bool = True, seed: int = 0,
     return Record("synthetic", t, meas, thr, dl, truth)
 
 
+@pytest.mark.slow
 def test_least_squares_recovers_qlpv_parameters_and_thrust_map() -> None:
     fit = fit_qlpv([_record(throttle_steps=True)])
     ref = reference_qlpv()

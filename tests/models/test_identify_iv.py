@@ -9,11 +9,14 @@ trained on (a zig-zag-like square nozzle) must be better.
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from companion.models.base import error_index
 from companion.models.identify import QLPV_DISSIPATIVE, fit_qlpv, refine_instrumental
 from companion.models.logs import Record
 from tests.models.helpers import reference_qlpv, sine_inputs
+
+pytestmark = pytest.mark.slow
 
 NOISE = np.array([0.1, 0.1, 0.001])
 """Measurement noise std of u, v (m/s) and r (rad/s), as the simulated GPS-INS."""

@@ -45,6 +45,7 @@ def test_autocorrelation_is_one_for_a_slow_series_and_low_for_white_noise() -> N
     assert abs(autocorrelation(white, 100)[0]) < 0.05
 
 
+@pytest.mark.slow
 def test_bound_is_small_when_the_model_error_persists_and_large_when_it_does_not() -> None:
     model = reference_qlpv()
     slow = held_error_bound(model, _record(60.0, 1))
@@ -54,6 +55,7 @@ def test_bound_is_small_when_the_model_error_persists_and_large_when_it_does_not
     assert all(fast.ratio[d] > 1 / 3 for d in DOF_NAMES), fast
 
 
+@pytest.mark.slow
 def test_noise_fit_recovers_the_sensor_noise_and_the_active_model_reaches_one_third() -> None:
     model = reference_qlpv()
     train, val = _record(60.0, 1), _record(60.0, 2)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
 from companion.models.baselines import LinearizedModel
@@ -95,6 +96,7 @@ def test_equals_linear_kalman_filter_on_linear_model() -> None:
         np.testing.assert_allclose(ukf.P, p, rtol=0, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_covariance_stays_symmetric_positive_definite_over_long_run() -> None:
     model, thr, dl, _, z = _measurements(60_000, seed=7)  # 10 minutes at 100 Hz
     ukf = make_ukf(model)

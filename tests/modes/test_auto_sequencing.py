@@ -13,7 +13,7 @@ import pytest
 
 from companion.control.target import ControlRequest
 from companion.guidance.geo import LocalFrame
-from companion.messages import ModeNumber, NavState, StatusText
+from companion.messages import STATUS_TEXT_TOPIC, ModeNumber, NavState
 from companion.mission import items as mi
 from companion.mission.items import MissionItem, MissionType
 from companion.mission.validate import validate_plan
@@ -31,7 +31,7 @@ class Rig:
         self.ctx = make_ctx()
         self.vehicle: Vehicle = make_vehicle(self.ctx)
         self.texts: list[str] = []
-        self.ctx.bus.topic("status_text", StatusText).add_listener(lambda s: self.texts.append(s.text))
+        self.ctx.bus.topic(STATUS_TEXT_TOPIC).add_listener(lambda s: self.texts.append(s.text))
         plan = [MissionItem.home(HOME_LAT_DEG, HOME_LON_DEG)]
         for seq, (cmd, ne, params) in enumerate(items, start=1):
             if ne is None:

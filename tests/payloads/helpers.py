@@ -9,12 +9,24 @@ from companion.app import Context
 from companion.bus import Bus
 from companion.clock import SimClock
 from companion.config import default_config
-from companion.messages import ControlSource, NavState, RcInput, VehicleStatus
+from companion.messages import (
+    NAV_TOPIC,
+    PAYLOAD_CMD_TOPIC,
+    PAYLOAD_SENSORS_TOPIC,
+    RC_IN_TOPIC,
+    VEHICLE_STATUS_TOPIC,
+    ControlSource,
+    NavState,
+    PayloadCommand,
+    PayloadSensors,
+    RcInput,
+    VehicleStatus,
+)
 from companion.params import ParamStore
 from companion.payloads.launcher import PARAMS as LAUNCHER_PARAMS
 from companion.payloads.samplelog import SampleLog
 from companion.payloads.sampler import PARAMS as SAMPLER_PARAMS
-from companion.payloads.topics import PAYLOAD_SENSORS_TOPIC, PayloadCommand, PayloadOutputs, PayloadSensors
+from companion.payloads.topics import PayloadOutputs
 
 LAT0, LON0 = 41.77, 123.43
 
@@ -37,26 +49,26 @@ class World:
         self.bottles_ml = [0.0] * 4
         self.lat, self.lon, self.heading_rad = LAT0, LON0, 0.5
         self.commands: list[PayloadCommand] = []
-        ctx.bus.topic("payload_cmd", PayloadCommand).add_listener(self.commands.append)
+        ctx.bus.topic(PAYLOAD_CMD_TOPIC).add_listener(self.commands.append)
 
     def set_armed(self, armed: bool) -> None:
-        self.ctx.bus.topic("vehicle_status", VehicleStatus).publish(
+        self.ctx.bus.topic(VEHICLE_STATUS_TOPIC).publish(
             VehicleStatus(t_s=self.clock.now_s(), armed=armed, mode=0)
         )
 
     def set_source(self, source: ControlSource) -> None:
-        self.ctx.bus.topic("rc_in", RcInput).publish(
+        self.ctx.bus.topic(RC_IN_TOPIC).publish(
             RcInput(t_s=self.clock.now_s(), channels_us=(), source=source)
         )
 
     def publish_sensors(self) -> None:
         t = self.clock.now_s()
-        self.ctx.bus.topic(PAYLOAD_SENSORS_TOPIC, PayloadSensors).publish(
+        self.ctx.bus.topic(PAYLOAD_SENSORS_TOPIC).publish(
             PayloadSensors(
                 t_s=t, cylinder_pressure_mpa=self.pressure_mpa, bottle_volume_ml=tuple(self.bottles_ml)
             )
         )
-        self.ctx.bus.topic("nav", NavState).publish(
+        self.ctx.bus.topic(NAV_TOPIC).publish(
             NavState(
                 t_s=t,
                 lat_deg=self.lat,

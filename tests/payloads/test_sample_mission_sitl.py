@@ -12,7 +12,7 @@ import pytest
 from companion.guidance.geo import LocalFrame
 from companion.link.dialect import mav
 from companion.mavlink.commands import CommandRequest
-from companion.messages import StatusText
+from companion.messages import STATUS_TEXT_TOPIC
 from companion.mission.items import MissionItem, MissionType
 from companion.mission.validate import validate_plan
 from companion.vehicle import MissionState
@@ -37,7 +37,7 @@ async def test_four_sample_items_fill_four_bottles_within_2_5_m_and_a_fifth_is_r
         assert validate_plan(plan, home_first=True) is None
         vehicle.missions.replace(MissionType.MISSION, plan)
         texts: list[str] = []
-        h.ctx.bus.topic("status_text", StatusText).add_listener(lambda s: texts.append(s.text))
+        h.ctx.bus.topic(STATUS_TEXT_TOPIC).add_listener(lambda s: texts.append(s.text))
         reached: list[int] = []
         vehicle.reached_listeners.append(reached.append)
         assert vehicle.arm() is None

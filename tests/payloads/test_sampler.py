@@ -6,6 +6,7 @@ import asyncio
 
 import pytest
 
+from companion.guidance.geo import LocalFrame
 from companion.payloads.sampler import BottleState, SampleJob, SampleRequest, WaterSampler
 
 from .helpers import LAT0, LON0, World, make_ctx
@@ -122,7 +123,7 @@ async def test_timeout_marks_failed(world: World) -> None:
 async def test_pump_only_inside_acceptance_circle_and_distance_logged(world: World) -> None:
     world.publish_sensors()
     sampler = WaterSampler(world.ctx, world.outputs, world.log)
-    target_lat = LAT0 + 1.5 / 111_195.0  # 1.5 m north
+    target_lat = LocalFrame(LAT0, LON0).to_lat_lon(1.5, 0.0)[0]  # 1.5 m north
     job = sampler.start(
         SampleRequest(
             fill_s=2.0, target_lat_deg=target_lat, target_lon_deg=LON0, accept_radius_m=2.5, mission_seq=7
@@ -131,7 +132,7 @@ async def test_pump_only_inside_acceptance_circle_and_distance_logged(world: Wor
     assert isinstance(job, SampleJob)
     await world.advance(1.0)
     assert world.outputs.current.pump_on
-    world.lat = LAT0 - 3.0 / 111_195.0  # drifted 4.5 m from the point: pump pauses
+    world.lat = LocalFrame(LAT0, LON0).to_lat_lon(-3.0, 0.0)[0]  # drifted 4.5 m from the point: pump pauses
     await world.advance(1.0)
     assert not world.outputs.current.pump_on and not job.done.done()
     world.lat = LAT0

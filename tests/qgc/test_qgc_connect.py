@@ -7,7 +7,8 @@ REQUEST_AUTOPILOT_CAPABILITIES 520), PROTOCOL_VERSION (300), COMPONENT_INFORMATI
 COMPONENT_METADATA (395/397); try the parameter download over MAVLink FTP
 (``@PARAM/param.pck``) and fall back to PARAM_REQUEST_LIST on the NAK; download mission,
 fence and rally; request HOME_POSITION; set stream rates.  Every step must finish without a
-timeout or a retry.
+timeout or a retry (QGC's own timeouts run on the wall clock; so do the step deadlines here).
+The stream rate is checked in the vehicle's time stamps (``time_boot_ms``, simulation clock).
 """
 
 from __future__ import annotations
@@ -101,7 +102,8 @@ def test_qgc_connect_sequence(tmp_path: Path, usv_env: dict[str, str]) -> None:
             q.step("heartbeat", t)
 
             t = time.monotonic()
-            assert q.command(mavutil.mavlink.MAV_CMD_REQUEST_MESSAGE, 148).result == 0
+            assert q.command(mavutil.mavlink.MAV_CMD_REQUEST_MESSAGE,
+                             mavutil.mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION).result == 0
             ver = q.recv("AUTOPILOT_VERSION")
             assert ver.capabilities & mavutil.mavlink.MAV_PROTOCOL_CAPABILITY_MAVLINK2
             assert q.command(mavutil.mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, 1).result == 0
@@ -109,7 +111,8 @@ def test_qgc_connect_sequence(tmp_path: Path, usv_env: dict[str, str]) -> None:
             q.step("autopilot_version", t)
 
             t = time.monotonic()
-            for msg_id in (300, 395, 397):  # PROTOCOL_VERSION, COMPONENT_INFORMATION/METADATA: clean NACK
+            # PROTOCOL_VERSION, COMPONENT_INFORMATION/METADATA (not in pymavlink's set): clean NACK
+            for msg_id in (300, 395, 397):
                 ack = q.command(mavutil.mavlink.MAV_CMD_REQUEST_MESSAGE, msg_id)
                 assert ack.result == mavutil.mavlink.MAV_RESULT_UNSUPPORTED
             q.step("protocol_version+component_metadata", t)
@@ -140,18 +143,19 @@ def test_qgc_connect_sequence(tmp_path: Path, usv_env: dict[str, str]) -> None:
             assert q.command(mavutil.mavlink.MAV_CMD_GET_HOME_POSITION).result == 0
             home = q.recv("HOME_POSITION")
             assert home.latitude != 0
-            assert q.command(mavutil.mavlink.MAV_CMD_REQUEST_MESSAGE, 242).result == 0
+            assert q.command(mavutil.mavlink.MAV_CMD_REQUEST_MESSAGE,
+                             mavutil.mavlink.MAVLINK_MSG_ID_HOME_POSITION).result == 0
             q.step("home_position", t)
 
             t = time.monotonic()
             q.mav.request_data_stream_send(1, 1, mavutil.mavlink.MAV_DATA_STREAM_ALL, 4, 1)
-            assert q.command(mavutil.mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 30, 100_000).result == 0
-            start = time.monotonic()
-            n = 0
-            while time.monotonic() - start < 1.0:
-                q.recv("ATTITUDE")
-                n += 1
-            assert n >= 7  # ~10 Hz after the request
+            assert q.command(mavutil.mavlink.MAV_CMD_SET_MESSAGE_INTERVAL,
+                             mavutil.mavlink.MAVLINK_MSG_ID_ATTITUDE, 100_000).result == 0
+            first_ms = q.recv("ATTITUDE").time_boot_ms
+            stamps = [first_ms]
+            while stamps[-1] < first_ms + 1000:
+                stamps.append(q.recv("ATTITUDE").time_boot_ms)
+            assert 9 <= sum(s < first_ms + 1000 for s in stamps) <= 11  # 10 Hz in vehicle time
             q.step("stream rates", t)
         finally:
             q.close()

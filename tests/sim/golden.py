@@ -35,7 +35,7 @@ from pathlib import Path
 from companion.actuators.servo import encode_frame
 from companion.bus import Bus
 from companion.clock import SimClock
-from companion.messages import EngineState, RcInput
+from companion.messages import ENGINE_TOPIC, RC_IN_TOPIC
 from companion.payloads.topics import PAYLOAD_SENSORS_TOPIC, PayloadSensors
 from companion.sensors.gpsins import GpsInsParser
 from sim_bridge.disturbances import spec_from_strings
@@ -95,8 +95,8 @@ def fingerprint(name: str) -> str:
     def seen(msg: object) -> None:
         h.update(repr(msg).encode())
 
-    bus.topic("engine", EngineState).add_listener(seen)
-    bus.topic("rc_in", RcInput).add_listener(seen)
+    bus.topic(ENGINE_TOPIC).add_listener(seen)
+    bus.topic(RC_IN_TOPIC).add_listener(seen)
     bus.topic(PAYLOAD_SENSORS_TOPIC, PayloadSensors).add_listener(seen)
     parser = GpsInsParser(clock, bus, lambda nav, ack: h.update(f"{nav!r}|{ack}".encode()))
     pack = struct.Struct("<14d").pack

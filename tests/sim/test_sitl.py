@@ -6,8 +6,16 @@ import math
 
 import pytest
 
-from companion.messages import ActuatorCommand, ControlSource, NavState, ServoOutputs
-from companion.payloads.topics import PayloadSensors
+from companion.messages import (
+    ACTUATOR_CMD_TOPIC,
+    NAV_TOPIC,
+    PAYLOAD_SENSORS_TOPIC,
+    RC_IN_TOPIC,
+    SERVO_OUT_TOPIC,
+    ActuatorCommand,
+    ControlSource,
+    NavState,
+)
 from sim_bridge.simboat import CH_LAUNCHER, CH_PUMP, CH_VALVE
 from sim_bridge.sitl import SitlHarness
 
@@ -25,10 +33,10 @@ async def test_companion_drives_the_boat_one_frame_per_sample(transport: str) ->
         assert h.stats.samples == 2000 and h.boat.frames_received >= 2000
         assert h.lockstep is not None and h.lockstep.missed_acks == 0
         assert h.plant.state.u_mps > 8.0
-        nav = h.ctx.bus.topic("nav", NavState).latest()
+        nav = h.ctx.bus.topic(NAV_TOPIC).latest()
         assert nav is not None and nav.t_s == pytest.approx(19.99)
         assert nav.u_mps == pytest.approx(h.plant.state.u_mps, abs=0.5)
-        out = h.ctx.bus.topic("servo_out", ServoOutputs).latest()
+        out = h.ctx.bus.topic(SERVO_OUT_TOPIC).latest()
         assert out is not None and out.pulse_us[2] == 1900
 
 
@@ -54,7 +62,7 @@ async def test_gps_outage_and_silent_sensor_are_visible_to_the_companion() -> No
         await h.run_for(1.0)
         h.faults.gps_outage = True
         await h.run_for(1.0)
-        nav = h.ctx.bus.topic("nav", NavState).latest()
+        nav = h.ctx.bus.topic(NAV_TOPIC).latest()
         assert nav is not None and not nav.position_valid and nav.satellites == 0
         samples = h.stats.samples
         h.faults.silent = True
@@ -64,7 +72,7 @@ async def test_gps_outage_and_silent_sensor_are_visible_to_the_companion() -> No
         h.faults.silent = False
         h.faults.gps_outage = False
         await h.run_for(0.5)
-        nav = h.ctx.bus.topic("nav", NavState).latest()
+        nav = h.ctx.bus.topic(NAV_TOPIC).latest()
         assert nav is not None and nav.position_valid
 
 
@@ -84,9 +92,8 @@ async def test_rc_override_takes_the_boat_away_from_the_companion() -> None:
         h.rc.override = True
         h.rc.ignition_on, h.rc.throttle, h.rc.nozzle_rad = True, 0.2, math.pi / 3
         await h.run_for(10.0)
-        from companion.messages import RcInput
 
-        rc = h.ctx.bus.topic("rc_in", RcInput).latest()
+        rc = h.ctx.bus.topic(RC_IN_TOPIC).latest()
         assert rc is not None and rc.source == ControlSource.RC
         assert h.plant.state.speed_mps < 2.0 and h.plant.state.r_radps > 0.2
 
@@ -94,7 +101,7 @@ async def test_rc_override_takes_the_boat_away_from_the_companion() -> None:
 async def test_launcher_fires_on_a_held_trigger_pulse_and_pressure_drops() -> None:
     async with SitlHarness(psi0_deg=90.0) as h:  # the seam: no payloads, their outputs are free
         await h.run_for(0.5)
-        first = h.ctx.bus.topic("payload_sensors", PayloadSensors).latest()
+        first = h.ctx.bus.topic(PAYLOAD_SENSORS_TOPIC).latest()
         assert first is not None and first.cylinder_pressure_mpa == 30.0
         h.set_servo(CH_LAUNCHER + 1, 1900)
         await h.run_for(0.1)
@@ -106,7 +113,7 @@ async def test_launcher_fires_on_a_held_trigger_pulse_and_pressure_drops() -> No
         assert ev.bearing_rad == pytest.approx(math.pi / 2, abs=0.01) and 100 < ev.range_m <= 150
         buoy = h.launcher.buoys[0]
         assert buoy.inflated and buoy.east_m == pytest.approx(ev.range_m, rel=0.01)
-        sensed = h.ctx.bus.topic("payload_sensors", PayloadSensors).latest()
+        sensed = h.ctx.bus.topic(PAYLOAD_SENSORS_TOPIC).latest()
         assert sensed is not None and sensed.cylinder_pressure_mpa < 10.0
 
 
@@ -119,7 +126,7 @@ async def test_sampler_fills_the_selected_bottle_while_the_pump_runs() -> None:
         await h.run_for(1.0)
         b = h.sampler.bottles_ml
         assert b[2] == pytest.approx(250.0, rel=0.05) and b[0] == b[1] == b[3] == 0.0
-        sensed = h.ctx.bus.topic("payload_sensors", PayloadSensors).latest()
+        sensed = h.ctx.bus.topic(PAYLOAD_SENSORS_TOPIC).latest()
         assert sensed is not None and sensed.bottle_volume_ml[2] == pytest.approx(b[2], abs=0.1)
 
 
@@ -148,7 +155,7 @@ async def test_slower_gps_ins_rates_run_the_loop_at_that_rate_through_the_parser
     async with SitlHarness(gnss_rate_hz=rate_hz) as h:
         drive(h, 0.8, 0.2)
         times: list[float] = []
-        h.ctx.bus.topic("nav", NavState).add_listener(lambda nav: times.append(nav.t_s))
+        h.ctx.bus.topic(NAV_TOPIC).add_listener(lambda nav: times.append(nav.t_s))
         hw = h.hardware
         assert hw is not None
         await h.run_for(10.0)
@@ -157,7 +164,7 @@ async def test_slower_gps_ins_rates_run_the_loop_at_that_rate_through_the_parser
         assert hw.parser.errors == 0 and hw.parser.nav_samples == 10 * rate_hz
         assert h.lockstep is not None and h.lockstep.missed_acks == 0
         assert h.plant.state.u_mps > 3.0 and h.plant.state.r_radps > 0.05  # throttle and starboard nozzle
-        nav = h.ctx.bus.topic("nav", NavState).latest()
+        nav = h.ctx.bus.topic(NAV_TOPIC).latest()
         assert nav is not None and nav.u_mps == pytest.approx(h.plant.state.u_mps, abs=0.5)
 
 
@@ -179,7 +186,7 @@ async def test_tasks_run_in_the_step_that_wakes_them_although_idle_event_loop_pa
                 woke.append((start_s + 0.137, h.clock.now_s(), h.stats.samples))
 
         async def watcher() -> None:
-            topic = h.ctx.bus.topic("actuator_cmd", ActuatorCommand)
+            topic = h.ctx.bus.topic(ACTUATOR_CMD_TOPIC)
             for _ in range(50):
                 cmd = await topic.next()
                 seen.append((cmd.t_s, h.stats.samples))

@@ -13,9 +13,7 @@ from companion.payloads.launcher.device import Interlock, LauncherState, RopeLau
 from companion.payloads.launcher.params import PARAMS
 from companion.payloads.registry import Payload, PayloadDef, PayloadEnv
 
-__all__ = ["PARAMS", "PAYLOAD", "STATUS_MSG_ID", "Interlock", "LauncherState", "RopeLauncher", "build"]
-
-STATUS_MSG_ID = 43000
+__all__ = ["PARAMS", "PAYLOAD", "Interlock", "LauncherState", "RopeLauncher", "build"]
 
 
 def build(env: PayloadEnv) -> Payload:
@@ -32,12 +30,14 @@ def build(env: PayloadEnv) -> Payload:
         ServoChannel,
         StatusMessage,
     )
-    from mavlink_dialect import UsvCmd
+    from mavlink_dialect import UsvCmd, usv
+
+    status_msg_id = usv.MAVLINK_MSG_ID_USV_LAUNCHER_STATUS
 
     dialect = DialectEntries(
         commands={UsvCmd.NAV_LAUNCH_AT: "USV_CMD_NAV_LAUNCH_AT", UsvCmd.LAUNCHER_ARM: "USV_CMD_LAUNCHER_ARM",
                   UsvCmd.LAUNCHER_FIRE: "USV_CMD_LAUNCHER_FIRE"},
-        messages={STATUS_MSG_ID: "USV_LAUNCHER_STATUS"})
+        messages={status_msg_id: "USV_LAUNCHER_STATUS"})
     launcher = RopeLauncher(env.ctx, env.outputs, env.samplelog)
     params, outputs = env.ctx.params, env.outputs
     commands = LauncherCommands(launcher)
@@ -59,7 +59,7 @@ def build(env: PayloadEnv) -> Payload:
                   PayloadCommandDecl(UsvCmd.LAUNCHER_FIRE, commands.fire, "USV_LAUNCHER_FIRE")),
         mission_actions=(MissionAction(UsvCmd.NAV_LAUNCH_AT, launch_at, check=check_launch_at),),
         servo_channels=(ServoChannel("USV_CH_LAUNCHER", 7, "launcher trigger", trigger_pulse_us),),
-        status=(StatusMessage(STATUS_MSG_ID, partial(launcher_status_message, launcher, params)),),
+        status=(StatusMessage(status_msg_id, partial(launcher_status_message, launcher, params)),),
         dialect=dialect, stop=stop)
 
 

@@ -25,9 +25,17 @@ import logging
 import math
 
 from companion.app import Context
-from companion.messages import ControlSource, NavState, RcInput, VehicleStatus
+from companion.messages import (
+    NAV_TOPIC,
+    PAYLOAD_SENSORS_TOPIC,
+    RC_IN_TOPIC,
+    VEHICLE_STATUS_TOPIC,
+    ControlSource,
+    RcInput,
+    VehicleStatus,
+)
 from companion.payloads.samplelog import LaunchRecord, SampleLog
-from companion.payloads.topics import PAYLOAD_SENSORS_TOPIC, PayloadOutputs, PayloadSensors
+from companion.payloads.topics import PayloadOutputs
 
 log = logging.getLogger(__name__)
 
@@ -69,8 +77,8 @@ class RopeLauncher:
         if samplelog is not None and (launches := samplelog.launches()):
             self.last_launch = launches[-1]
         ctx.params.add_listener(self._on_param)
-        ctx.bus.topic("vehicle_status", VehicleStatus).add_listener(self._on_vehicle_status)
-        ctx.bus.topic("rc_in", RcInput).add_listener(self._on_rc)
+        ctx.bus.topic(VEHICLE_STATUS_TOPIC).add_listener(self._on_vehicle_status)
+        ctx.bus.topic(RC_IN_TOPIC).add_listener(self._on_rc)
         outputs.set(launcher_trigger=False, trigger_pulse_us=ctx.params.get_int("USV_LNCH_SAFE_US"))
 
     # -- inputs -------------------------------------------------------------------------------
@@ -91,7 +99,7 @@ class RopeLauncher:
 
     def vehicle_armed(self) -> bool:
         """The vehicle's arming state as it last published it (``vehicle_status``)."""
-        status = self.ctx.bus.topic("vehicle_status", VehicleStatus).latest()
+        status = self.ctx.bus.topic(VEHICLE_STATUS_TOPIC).latest()
         return bool(status and status.armed)
 
     def safe_pulse_us(self) -> int:
@@ -102,14 +110,14 @@ class RopeLauncher:
 
     def pressure_mpa(self) -> float | None:
         """The latest fresh cylinder pressure, or None if unknown/stale."""
-        reading = self.ctx.bus.topic(PAYLOAD_SENSORS_TOPIC, PayloadSensors).latest()
+        reading = self.ctx.bus.topic(PAYLOAD_SENSORS_TOPIC).latest()
         if reading is None or self.ctx.clock.now_s() - reading.t_s > SENSOR_STALE_S:
             return None
         p = reading.cylinder_pressure_mpa
         return p if math.isfinite(p) else None
 
     def control_source(self) -> ControlSource | None:
-        rc = self.ctx.bus.topic("rc_in", RcInput).latest()
+        rc = self.ctx.bus.topic(RC_IN_TOPIC).latest()
         return None if rc is None else rc.source
 
     # -- state --------------------------------------------------------------------------------
@@ -200,7 +208,7 @@ class RopeLauncher:
         params = self.ctx.params
         self.firing = True
         self.armed_until_s = None  # one arm, one shot
-        nav = self.ctx.bus.topic("nav", NavState).latest()
+        nav = self.ctx.bus.topic(NAV_TOPIC).latest()
         pressure = self.pressure_mpa()
         t_unix_s = self.ctx.clock.unix_time_s()
         try:

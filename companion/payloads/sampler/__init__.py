@@ -9,15 +9,13 @@ in :mod:`.mavlink` (imported when a vehicle is built: reading the parameter tabl
 
 from __future__ import annotations
 
+from companion.messages import BOTTLE_COUNT
 from companion.payloads.registry import Payload, PayloadDef, PayloadEnv
 from companion.payloads.sampler.device import BottleState, SampleJob, SampleRequest, WaterSampler
 from companion.payloads.sampler.params import PARAMS
-from companion.payloads.topics import BOTTLE_COUNT
 
-__all__ = ["PARAMS", "PAYLOAD", "STATUS_MSG_ID", "BottleState", "SampleJob", "SampleRequest", "WaterSampler",
-           "build"]
+__all__ = ["PARAMS", "PAYLOAD", "BottleState", "SampleJob", "SampleRequest", "WaterSampler", "build"]
 
-STATUS_MSG_ID = 43001
 VALVE_CLOSED_US, VALVE_STEP_US = 1000, 200
 """Valve servo: 1000 us all closed, 1200/1400/1600/1800 us = bottle 1-4."""
 
@@ -32,12 +30,14 @@ def build(env: PayloadEnv) -> Payload:
     from companion.payloads.registry import DialectEntries, PayloadCommandDecl, ServoChannel, StatusMessage
     from companion.payloads.sampler.mavlink import SamplerCommands, sampler_status_message
     from companion.payloads.sampler.mission import SampleHereItem, check_sample_here
-    from mavlink_dialect import UsvCmd
+    from mavlink_dialect import UsvCmd, usv
+
+    status_msg_id = usv.MAVLINK_MSG_ID_USV_SAMPLER_STATUS
 
     dialect = DialectEntries(
         commands={UsvCmd.NAV_SAMPLE_HERE: "USV_CMD_NAV_SAMPLE_HERE", UsvCmd.SAMPLE: "USV_CMD_SAMPLE",
                   UsvCmd.PUMP_STOP: "USV_CMD_PUMP_STOP", UsvCmd.SAMPLER_RESET: "USV_CMD_SAMPLER_RESET"},
-        messages={STATUS_MSG_ID: "USV_SAMPLER_STATUS"})
+        messages={status_msg_id: "USV_SAMPLER_STATUS"})
     sampler = WaterSampler(env.ctx, env.outputs, env.samplelog)
     params, outputs = env.ctx.params, env.outputs
     commands = SamplerCommands(sampler, env.ctx.clock)
@@ -69,7 +69,7 @@ def build(env: PayloadEnv) -> Payload:
         mission_actions=(MissionAction(UsvCmd.NAV_SAMPLE_HERE, sample_here, check=check_sample_here),),
         servo_channels=(ServoChannel("USV_CH_PUMP", 8, "sampler pump", pump_pulse_us),
                         ServoChannel("USV_CH_VALVE", 4, "sampler valve", valve_pulse_us)),
-        status=(StatusMessage(STATUS_MSG_ID, partial(sampler_status_message, sampler)),),
+        status=(StatusMessage(status_msg_id, partial(sampler_status_message, sampler)),),
         dialect=dialect, stop=stop)
 
 

@@ -24,10 +24,10 @@ import math
 from dataclasses import dataclass, field
 
 from companion.app import Context
-from companion.messages import NavState
-from companion.payloads.geo import distance_m
+from companion.guidance.geo import distance_m
+from companion.messages import BOTTLE_COUNT, NAV_TOPIC, PAYLOAD_SENSORS_TOPIC, NavState, PayloadSensors
 from companion.payloads.samplelog import SampleLog, SampleRecord
-from companion.payloads.topics import BOTTLE_COUNT, PAYLOAD_SENSORS_TOPIC, PayloadOutputs, PayloadSensors
+from companion.payloads.topics import PayloadOutputs
 
 log = logging.getLogger(__name__)
 
@@ -98,7 +98,7 @@ class WaterSampler:
 
     # -- queries --------------------------------------------------------------------------------
     def sensors(self) -> PayloadSensors | None:
-        reading = self.ctx.bus.topic(PAYLOAD_SENSORS_TOPIC, PayloadSensors).latest()
+        reading = self.ctx.bus.topic(PAYLOAD_SENSORS_TOPIC).latest()
         if reading is None or self.ctx.clock.now_s() - reading.t_s > SENSOR_STALE_S:
             return None
         return reading
@@ -188,7 +188,7 @@ class WaterSampler:
 
     # -- internals --------------------------------------------------------------------------------
     def _nav(self) -> NavState | None:
-        nav = self.ctx.bus.topic("nav", NavState).latest()
+        nav = self.ctx.bus.topic(NAV_TOPIC).latest()
         return nav if nav is not None and nav.position_valid else None
 
     @staticmethod

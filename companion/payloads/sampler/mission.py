@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 
-from companion.messages import NavState, Severity
+from companion.messages import BOTTLE_COUNT, NavState, Severity
 from companion.mission import validate as v
 from companion.mission.items import MissionItem
 from companion.modes.auto_items import AutoRun, NavItem, Phase
@@ -22,7 +22,6 @@ from companion.payloads.mission_checks import check_coordinates, in_range, is_de
 from companion.payloads.registry import PayloadEnv
 from companion.payloads.sampler.device import SampleJob, SampleRequest, WaterSampler
 from companion.payloads.sampler.params import PARAMS
-from companion.payloads.topics import BOTTLE_COUNT
 
 
 def check_sample_here(item: MissionItem) -> v.ItemProblem | None:

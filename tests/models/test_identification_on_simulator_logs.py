@@ -1,4 +1,6 @@
-"""Issue 5 done-when on simulator logs, through the code ``usv identify`` runs.
+"""Identification on simulator logs, through the code ``usv identify`` runs: the qLPV model
+against both baselines (J, Eq. 12), the active model's 1 s predictions (Eq. 5-11), and the
+``usv identify`` command's report, params.toml and errors.
 
 Training: chapter protocol (sine +-pi/3 at 30 % throttle, 10 s period), seed 1, calm, 90 s.
 Validation (60 s each, other seeds): sine in calm water; sine, zig-zag and random in a
@@ -28,6 +30,8 @@ from companion.models.pipeline import JTable, identify_models, ratios, validate
 from companion.runtime import build_companion, build_context
 from sim_bridge.maneuvers import run_maneuver, write_log_csv
 from tests.conftest import usv_command
+
+pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")
