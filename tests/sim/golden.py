@@ -36,7 +36,7 @@ from companion.actuators.servo import encode_frame
 from companion.bus import Bus
 from companion.clock import SimClock
 from companion.messages import ENGINE_TOPIC, RC_IN_TOPIC
-from companion.payloads.topics import PAYLOAD_SENSORS_TOPIC, PayloadSensors
+from companion.payloads.topics import PAYLOAD_SENSORS_TOPIC
 from companion.sensors.gpsins import GpsInsParser
 from sim_bridge.disturbances import spec_from_strings
 from sim_bridge.hull import BoatParams
@@ -97,7 +97,7 @@ def fingerprint(name: str) -> str:
 
     bus.topic(ENGINE_TOPIC).add_listener(seen)
     bus.topic(RC_IN_TOPIC).add_listener(seen)
-    bus.topic(PAYLOAD_SENSORS_TOPIC, PayloadSensors).add_listener(seen)
+    bus.topic(PAYLOAD_SENSORS_TOPIC).add_listener(seen)
     parser = GpsInsParser(clock, bus, lambda nav, ack: h.update(f"{nav!r}|{ack}".encode()))
     pack = struct.Struct("<14d").pack
     for i in range(s.steps):
