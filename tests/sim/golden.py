@@ -35,8 +35,7 @@ from pathlib import Path
 from companion.actuators.servo import encode_frame
 from companion.bus import Bus
 from companion.clock import SimClock
-from companion.messages import ENGINE_TOPIC, RC_IN_TOPIC
-from companion.payloads.topics import PAYLOAD_SENSORS_TOPIC
+from companion.messages import ENGINE_TOPIC, PAYLOAD_SENSORS_TOPIC, RC_IN_TOPIC
 from companion.sensors.gpsins import GpsInsParser
 from sim_bridge.disturbances import spec_from_strings
 from sim_bridge.hull import BoatParams
