@@ -20,12 +20,24 @@ of its own uncertainty, w = logistic((V_c^T P_c^-1 V_c - gate) / 2)
 (:func:`~companion.models.current_ukf.current_weight`); the rest (1 - w) of the body-frame
 current stays in the starting velocity, as the model alone would treat it.
 
+Never worse than the model alone.  What the filter holds over the horizon (delta_nu, and the
+current) helps only where the model error persists for that long; where it does not (calm
+water: the error changes sign within a second) holding it adds noise to the prediction.  So
+the active prediction is the plain one plus the held correction scaled, per DOF, by a gain g in
+[0, 1] learnt online from the predictions whose outcome is already measured
+(:func:`held_correction_gain`): the least-squares slope of the realised plain-prediction error
+on the held correction, over an exponentially forgotten past (:data:`GAIN_MEMORY_S`), used only
+where it is significant (t > :data:`GAIN_MIN_T`), else 0.  The gain at sample i uses only
+predictions that ended by i, as a boat would.  ``gated=False`` gives the raw held correction
+(g = 1), as the chapter's Eq. 5 holds it.
+
 The *plain* prediction, which the active one is compared with (Table 4's ratio), is the qLPV
 model alone from the same filter's over-ground velocity estimate, without model error or current.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,6 +48,11 @@ from companion.models.current import current_body
 from companion.models.current_ukf import current_mahalanobis, current_weight
 from companion.models.logs import Record
 from companion.models.ukf import CURRENT_GATE_CHI2, UKFSettings, make_ukf
+
+GAIN_MEMORY_S = 30.0
+"""Time constant (s) of the exponential forgetting of :func:`held_correction_gain`."""
+GAIN_MIN_T = 2.0
+"""The held correction is used only where the slope's t statistic exceeds this."""
 
 
 @dataclass
@@ -91,10 +108,54 @@ def predict_plain(model: LinearInParamsModel, rec: Record, run: FilterRun, horiz
     return model.predict_ahead(rec.t_s, run.nu_over_ground, rec.throttle, rec.delta_rad, horizon_s)
 
 
-def predict_active(model: LinearInParamsModel, rec: Record, run: FilterRun, horizon_s: float
-                   ) -> tuple[NDArray[np.intp], FloatArray]:
+def held_correction_gain(correction: FloatArray, plain_error: FloatArray, horizon_steps: int,
+                         dt_s: float, memory_s: float = GAIN_MEMORY_S, min_t: float = GAIN_MIN_T
+                         ) -> FloatArray:
+    """Per start sample and DOF, the gain g in [0, 1] of the held correction (module docstring).
+
+    ``correction`` (n, 3): active minus plain prediction of the window starting at each sample;
+    ``plain_error`` (n, 3): the measured state at the window's end minus the plain prediction.
+    The window starting at j ends at j + h, so the gain at start i is fitted on windows j <= i - h.
+    Samples 1 s apart are far from independent: the t statistic counts one sample per horizon."""
+    from scipy.signal import lfilter
+
+    lam = math.exp(-dt_s / memory_s)
+    b, a = [1.0 - lam], [1.0, -lam]
+    sxy = lfilter(b, a, correction * plain_error, axis=0)
+    sxx = lfilter(b, a, correction * correction, axis=0)
+    syy = lfilter(b, a, plain_error * plain_error, axis=0)
+    n = correction.shape[0]
+    weight = 1.0 - lam ** np.arange(1, n + 1)  # what the forgetting sums have seen (bias)
+    sxy, sxx, syy = (x / weight[:, None] for x in (sxy, sxx, syy))
+    n_eff = np.minimum(np.arange(1, n + 1), 1.0 / (1.0 - lam)) / max(horizon_steps, 1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        slope = np.where(sxx > 0, sxy / sxx, 0.0)
+        resid = np.maximum(syy - slope * sxy, 1e-30)
+        t_stat = slope * np.sqrt(sxx * n_eff[:, None] / resid)
+    fitted = np.where(t_stat > min_t, np.clip(slope, 0.0, 1.0), 0.0)
+    gain = np.zeros_like(correction)
+    gain[horizon_steps:] = fitted[: n - horizon_steps]
+    return np.asarray(gain)
+
+
+def predict_active(model: LinearInParamsModel, rec: Record, run: FilterRun, horizon_s: float,
+                   gated: bool = True) -> tuple[NDArray[np.intp], FloatArray]:
     """The active model h ahead: delta_nu held; with the current filter, the hull through the
-    water and the (weighted) current held in the earth frame (module docstring)."""
+    water and the (weighted) current held in the earth frame; the held correction scaled by
+    :func:`held_correction_gain` unless ``gated`` is False (module docstring)."""
+    idx, raw = _predict_held(model, rec, run, horizon_s)
+    if not gated:
+        return idx, raw
+    _, plain = predict_plain(model, rec, run, horizon_s)
+    h = int(idx[0])
+    correction = raw - plain
+    gain = held_correction_gain(correction, rec.nu[idx] - plain, h, float(np.median(np.diff(rec.t_s))))
+    return idx, np.asarray(plain + gain * correction)
+
+
+def _predict_held(model: LinearInParamsModel, rec: Record, run: FilterRun, horizon_s: float
+                  ) -> tuple[NDArray[np.intp], FloatArray]:
+    """The h-ahead prediction with what the filter estimated held (g = 1)."""
     if not run.settings.estimate_current:
         return model.predict_ahead(rec.t_s, run.nu_model, rec.throttle, rec.delta_rad, horizon_s,
                                    delta_nu=run.delta_nu)

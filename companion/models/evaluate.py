@@ -7,7 +7,8 @@
   error;
 * ``ahead_active``: the same, with the UKF-estimated model error delta_nu at i - h held
   constant over the horizon (the active model of Eq. 5), and with the current filter the
-  estimated current too (:mod:`companion.models.active_prediction`).
+  estimated current too, scaled by the gain learnt online from past predictions
+  (:mod:`companion.models.active_prediction`).
 
 Reference of J.  The GPS-INS speed noise (0.1 m/s, Table 2) is of the order of the sway
 velocity itself, so J against raw measurements would mostly measure sensor noise (a perfect
