@@ -46,7 +46,7 @@ def figures(t_s: np.ndarray, north_m: np.ndarray, east_m: np.ndarray, psi_rad: n
     ``max_yaw_rate_degps`` largest |r|, ``mean_sog_mps`` mean speed over ground, ``path_extent_m``
     farthest distance from where the manoeuvre began, ``displacement_m`` distance from there at
     the end (a turning circle drifts with the current), ``heading_change_deg`` total turn."""
-    sel = t_s >= warmup_s - 1e-9
+    sel = np.ravel(t_s) >= warmup_s - 1e-9
     n, e = north_m[sel], east_m[sel]
     dist = np.hypot(n - n[0], e - e[0])
     turn = np.sum(np.abs(np.angle(np.exp(1j * np.diff(psi_rad[sel], axis=0)))), axis=0)

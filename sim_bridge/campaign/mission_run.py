@@ -47,8 +47,8 @@ SETTLE_S = 2.0
 """Simulated seconds before arming (first fixes, home)."""
 POLL_S = 0.5
 """Simulated seconds between two looks at the mission's progress."""
-TRACK_PERIOD_S = 1.0
-"""Period of the track kept for the report's plots."""
+TRACK_PERIOD_S = 0.25
+"""Period of the track kept for the report's plots (s)."""
 
 
 def companion_item(item: Any) -> MissionItem:

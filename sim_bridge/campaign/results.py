@@ -4,7 +4,7 @@
 ``DIR/results.csv``     one row per finished run (:data:`COLUMNS`), appended and flushed to disk
                         when the run's result arrives; a row cut short by a kill is dropped on the
                         next start, and that run is done again
-``DIR/tracks/NNNNN.json``  the run's track (1 Hz, metres north/east of home) for the report's plots
+``DIR/tracks/NNNNN.json``  the run's track (metres north/east of home) for the report's plots
 
 A run is finished when its row is in ``results.csv``; a rerun of the campaign skips those runs.
 A run whose worker was lost (no result) writes no row and is done again by the next rerun.

@@ -14,6 +14,7 @@ this process instead (:func:`sim_bridge.campaign.maneuver.run_batch`), in chunks
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import socket
 import sys
@@ -76,6 +77,7 @@ def dask_client(scheduler: str | None, workers: int | None) -> Iterator[Any]:
     single-threaded processes (default one per core)."""
     from distributed import Client, LocalCluster
 
+    logging.getLogger("distributed").setLevel(logging.WARNING)  # no INFO lines between progress updates
     if scheduler:
         try:
             client = Client(scheduler, timeout="20s")

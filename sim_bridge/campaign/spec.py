@@ -236,7 +236,14 @@ class CampaignSpec:
 
 
 def options_argv(options: Mapping[str, Any]) -> list[str]:
-    """``{points = ["1,2", ...], speed = 3, reset_bottles = true}`` as command-line arguments."""
+    """``{points = ["1,2", ...], speed = 3, reset_bottles = true}`` as command-line arguments.  A value
+    starting with '-' (``"-15,10"``) gets a leading space, so argparse does not take it for an option
+    (the scripts' number parsers ignore the space)."""
+
+    def arg(value: Any) -> str:
+        text = str(value)
+        return " " + text if text.startswith("-") else text
+
     argv: list[str] = []
     for key, value in options.items():
         flag = "--" + key.replace("_", "-")
@@ -244,9 +251,9 @@ def options_argv(options: Mapping[str, Any]) -> list[str]:
             if value:
                 argv.append(flag)
         elif isinstance(value, list):
-            argv += [flag, *(str(v) for v in value)]
+            argv += [flag, *(arg(v) for v in value)]
         else:
-            argv += [flag, str(value)]
+            argv += [flag, arg(value)]
     return argv
 
 
