@@ -112,7 +112,8 @@ def plan_from(frame: LocalFrame, here: tuple[float, float], casualty_ne: tuple[f
     ]
     names = ["approach speed", "approach", "slow down", "stop, aim and fire", "hold: person pulled alongside",
              "towing speed", "tow home"]
-    return {"items": items, "names": names, "launch_ne": launch_ne, "slow_ne": slow_ne, "bearing_deg": bearing_deg}
+    return {"items": items, "names": names, "launch_ne": launch_ne, "slow_ne": slow_ne,
+            "bearing_deg": bearing_deg}
 
 
 async def check_launcher(boat: Boat) -> dict[str, Any]:

@@ -68,7 +68,8 @@ def run_sample(spec: CampaignSpec, sample: Sample) -> dict[str, Any]:
                    np.hypot(col["u_true"], col["v_true"]), o["warmup_s"])
     out: dict[str, Any] = {k: round(float(v[0]), 4) for k, v in figs.items()}
     keep = slice(None, None, 100)
-    out.update(success=True, failures="", mission_complete=True, sim_time_s=round(float(log["t"][-1]) + DT_S, 2),
+    out.update(success=True, failures="", mission_complete=True,
+               sim_time_s=round(float(log["t"][-1]) + DT_S, 2),
                track={"north_m": np.round(log["x_true"][keep], 2).tolist(),
                       "east_m": np.round(log["y_true"][keep], 2).tolist(), "marks_ne": []},
                wall_s=round(time.perf_counter() - t_wall, 3), cpu_s=round(time.thread_time() - t_cpu, 3))
@@ -121,10 +122,12 @@ def run_batch(spec: CampaignSpec, samples: Sequence[Sample]) -> list[dict[str, A
             if psi_ref is None:
                 psi_ref = psi.copy()
             dpsi = np.angle(np.exp(1j * (psi - psi_ref)))
-            sign = np.where((sign > 0) & (dpsi >= amp), -1.0, np.where((sign < 0) & (dpsi <= -amp), 1.0, sign))
+            sign = np.where((sign > 0) & (dpsi >= amp), -1.0,
+                            np.where((sign < 0) & (dpsi <= -amp), 1.0, sign))
             delta = sign * amp
         else:
-            raise ValueError(f"batch mode has no {spec.maneuver!r} manoeuvre (random needs one generator per boat)")
+            raise ValueError(f"batch mode has no {spec.maneuver!r} manoeuvre "
+                             "(random needs one generator per boat)")
         plant.step(DT_S, delta, thr, True)
     arr = {k: np.stack(v) for k, v in cols.items()}
     figs = figures(t, arr["north"], arr["east"], arr["psi"], arr["r"], arr["sog"], warmup)

@@ -71,14 +71,15 @@ class Plan:
         if spec.script == "water_sampling":
             from missions import water_sampling
 
-            self.points_ne = [tuple(map(float, p)) for p in self.args.points]
+            self.points_ne: list[tuple[float, float]] = [(float(p[0]), float(p[1])) for p in self.args.points]
             self.radius_m = float(self.args.radius or turn_radius_m)
             raw = water_sampling.plan(frame, self.points_ne, self.radius_m, self.args)
         else:
             from missions import rescue
 
-            casualty = self.args.casualty_at
-            self.casualty_ne = frame.to_ne(*casualty) if casualty else tuple(map(float, self.args.casualty))
+            at, offset = self.args.casualty_at, self.args.casualty
+            self.casualty_ne: tuple[float, float] = (frame.to_ne(*at) if at else
+                                                     (float(offset[0]), float(offset[1])))
             self.geometry = rescue.plan_from(frame, here_ne, self.casualty_ne, self.args)
             raw = self.geometry["items"]
             self.limits_s = {rescue.LAUNCH_SEQ: float(self.args.aim_timeout)}
@@ -95,8 +96,8 @@ async def fly(spec: CampaignSpec, sample: Sample, workdir: Path) -> dict[str, An
                                               "links.serial": [], "links.tlog": False, **spec.config})
     state_dir = workdir / "state"
     harness = SitlHarness(seed=sample.seed, wind=sample.wind, current=sample.current, waves=sample.waves,
-                          payload_kg=sample.payload_kg, noise_scale=sample.sensor_noise_scale, full_stack=True,
-                          config=config, params=spec.params, state_dir=state_dir)
+                          payload_kg=sample.payload_kg, noise_scale=sample.sensor_noise_scale,
+                          full_stack=True, config=config, params=spec.params, state_dir=state_dir)
     out: dict[str, Any] = {}
     failures: list[str] = []
     texts: list[StatusText] = []
@@ -122,7 +123,7 @@ async def fly(spec: CampaignSpec, sample: Sample, workdir: Path) -> dict[str, An
             if problem is not None:
                 raise RunFailed(f"mission refused: {problem.reason}")
             reached: dict[int, float] = {}
-            vehicle.reached_listeners.append(lambda seq: reached.setdefault(seq, h.clock.now_s()))
+            vehicle.reached_listeners.append(lambda seq: _first(reached, seq, h.clock.now_s()))
             t0 = h.clock.now_s()
             reason = vehicle.set_mode(ModeNumber.AUTO)
             if reason is not None:
@@ -174,9 +175,14 @@ async def fly(spec: CampaignSpec, sample: Sample, workdir: Path) -> dict[str, An
                warnings=sum(t.severity <= Severity.WARNING for t in texts),
                messages=" | ".join(t.text for t in texts if t.severity <= Severity.WARNING)[:300])
     keep = truth.window(t0, t_end)[:: max(1, round(TRACK_PERIOD_S / 0.05))]
-    out["track"] = {"north_m": np.round(truth.n[keep], 2).tolist(), "east_m": np.round(truth.e[keep], 2).tolist(),
+    out["track"] = {"north_m": np.round(truth.n[keep], 2).tolist(),
+                    "east_m": np.round(truth.e[keep], 2).tolist(),
                     "marks_ne": [list(p) for p in _marks(plan)]}
     return out
+
+
+def _first(times: dict[int, float], key: int, t_s: float) -> None:
+    times.setdefault(key, t_s)
 
 
 class RunFailed(Exception):
@@ -228,7 +234,8 @@ def _figures(plan: Plan, truth: nav_metrics.Truth, t0: float, t_end: float, reac
 
         geo = plan.geometry
         launch_seq = rescue.LAUNCH_SEQ
-        legs = nav_metrics.square(truth, t0, reached.get(launch_seq, t_end), [geo["slow_ne"], geo["launch_ne"]],
+        legs = nav_metrics.square(truth, t0, reached.get(launch_seq, t_end),
+                                  [geo["slow_ne"], geo["launch_ne"]],
                                   {k: reached[s] for k, s in ((1, 1), (2, launch_seq)) if s in reached})
         report: dict[str, Any] = {"launched": bool(launches)}
         if launches:

@@ -11,6 +11,7 @@ with the run it came from, the worst runs, and the campaign's throughput.
 
 from __future__ import annotations
 
+import itertools
 import math
 import re
 import tomllib
@@ -89,13 +90,14 @@ def write_report(results_dir: Path | str, report: Path | str) -> dict[str, Any]:
     lines = [f"# Campaign `{name}`", ""]
     if camp.get("description"):
         lines += [str(camp["description"]), ""]
-    lines += [f"- runs: **{n}** (indices {index.min()}-{index.max()}), of which {len(errors)} ended in an error",
+    lines += [f"- runs: **{n}** (indices {index.min()}-{index.max()}), of which {len(errors)} ended in an "
+              "error",
               f"- success: **{k} / {n} = {100.0 * k / n:.1f} %** (95 % Wilson interval "
               f"{100 * lo:.1f}-{100 * hi:.1f} %)"]
     sim, wall, cpu = np.nansum(col["sim_time_s"]), np.nansum(col["wall_s"]), np.nansum(col["cpu_s"])
     if wall > 0:
-        lines.append(f"- simulated {sim:.0f} s in {wall:.0f} s of run wall time ({sim / wall:.1f} simulated s per "
-                     f"wall s per worker; median {np.nanmedian(col['wall_s']):.2f} wall s per run, "
+        lines.append(f"- simulated {sim:.0f} s in {wall:.0f} s of run wall time ({sim / wall:.1f} simulated "
+                     f"s per wall s per worker; median {np.nanmedian(col['wall_s']):.2f} wall s per run, "
                      f"{cpu:.0f} CPU s in all)")
     lines.append("")
 
@@ -103,9 +105,10 @@ def write_report(results_dir: Path | str, report: Path | str) -> dict[str, Any]:
     if np.isfinite(speed).all():
         edges = np.linspace(float(speed.min()), float(speed.max()) + 1e-9, CURRENT_BINS + 1) \
             if speed.max() > speed.min() else np.array([speed.min(), speed.min() + 1e-9])
-        lines += ["## Success against current speed", "", "| current (m/s) | runs | success |", "|---|---|---|"]
+        lines += ["## Success against current speed", "", "| current (m/s) | runs | success |",
+                  "|---|---|---|"]
         centres, rates, counts = [], [], []
-        for a, b in zip(edges[:-1], edges[1:], strict=True):
+        for a, b in itertools.pairwise(edges):
             sel = (speed >= a) & (speed < b)
             if sel.any():
                 rate = float(success[sel].mean())
@@ -146,16 +149,19 @@ def write_report(results_dir: Path | str, report: Path | str) -> dict[str, Any]:
             lines += ["Figures against each disturbance: " + ", ".join(f"`{p.name}`" for p in plots[1:]), ""]
 
     if primary is not None:
-        order = [i for i in np.argsort(-np.nan_to_num(col[primary], nan=-np.inf)) if np.isfinite(col[primary][i])]
+        ranked = np.argsort(-np.nan_to_num(col[primary], nan=-np.inf))
+        order = [i for i in ranked if np.isfinite(col[primary][i])]
         worst_runs = [int(i) for i in order[:WORST_TRACKS]]
         lines += [f"## Worst runs by {primary}", "",
-                  "| run | " + primary + " | success | current (m/s, toward deg) | wind (m/s) | Hs (m) | failures |",
+                  f"| run | {primary} | success | current (m/s, toward deg) | wind (m/s) | Hs (m) | "
+                  "failures |",
                   "|---|---|---|---|---|---|---|"]
         for i in worst_runs:
             r = rows[i]
             lines.append(f"| {r['index']} | {col[primary][i]:.3f} | {'yes' if success[i] else 'no'} | "
                          f"{_float(r['current_speed_mps']):.2f}, {_float(r['current_toward_deg']):.0f} | "
-                         f"{_float(r['wind_speed_mps']):.1f} | {_float(r['wave_hs_m']):.2f} | {r['failures']} |")
+                         f"{_float(r['wind_speed_mps']):.1f} | {_float(r['wave_hs_m']):.2f} | "
+                         f"{r['failures']} |")
         tracks = [(rows[i], read_track(results_dir, int(rows[i]["index"]))) for i in worst_runs]
         tracks_plot = _plot_tracks(stem, primary, [(r, t) for r, t in tracks if t], col[primary], rows)
         if tracks_plot is not None:
@@ -163,7 +169,8 @@ def write_report(results_dir: Path | str, report: Path | str) -> dict[str, Any]:
             lines += ["", f"![worst tracks]({tracks_plot.name})"]
         lines.append("")
     if plots:
-        lines += ["## Plots", ""] + [f"![{p.stem}]({p.name})" for p in plots if p.name.endswith(".png")] + [""]
+        lines += ["## Plots", "", *(f"![{p.stem}]({p.name})" for p in plots if not p.stem.endswith("tracks")),
+                  ""]
     report.write_text("\n".join(lines), encoding="utf-8")
     return {"runs": n, "successes": k, "plots": [str(p) for p in plots], "figures": figures}
 
@@ -182,11 +189,13 @@ def _plot_success(stem: Path, speed: np.ndarray, success: np.ndarray, centres: l
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(7, 4))
     width = float(edges[1] - edges[0]) * 0.9 if len(edges) > 1 else 0.1
-    ax.bar(centres, [100 * r for r in rates], width=width, color="tab:blue", alpha=0.4, label="success rate per bin")
+    ax.bar(centres, [100 * r for r in rates], width=width, color="tab:blue", alpha=0.4,
+           label="success rate per bin")
     jitter = np.random.default_rng(0).uniform(-2.0, 2.0, len(speed))
-    ax.scatter(speed, np.where(success, 100.0, 0.0) + jitter, s=10, c=np.where(success, "tab:green", "tab:red"),
-               label="runs (succeeded at 100, failed at 0)")
-    ax.set(xlabel="current speed [m/s]", ylabel="success [%]", ylim=(-8, 108), title="Success against current")
+    ax.scatter(speed, np.where(success, 100.0, 0.0) + jitter, s=10,
+               c=np.where(success, "tab:green", "tab:red"), label="runs (succeeded at 100, failed at 0)")
+    ax.set(xlabel="current speed [m/s]", ylabel="success [%]", ylim=(-8, 108),
+           title="Success against current")
     ax.legend(loc="lower left", fontsize=8)
     ax.grid(True, alpha=0.3)
     path = Path(f"{stem}_success_vs_current.png")
@@ -229,7 +238,8 @@ def _plot_tracks(stem: Path, primary: str, tracks: list[tuple[dict[str, str], di
         ax.plot([0.0], [0.0], "k^")
         v = values[rows.index(row)]
         ax.set(aspect="equal", xlabel="east of home [m]", ylabel="north of home [m]",
-               title=f"run {row['index']}: {primary} {v:.2f}\ncurrent {_float(row['current_speed_mps']):.2f} m/s "
+               title=f"run {row['index']}: {primary} {v:.2f}\n"
+                     f"current {_float(row['current_speed_mps']):.2f} m/s "
                      f"toward {_float(row['current_toward_deg']):.0f} deg")
         ax.title.set_fontsize(9)
         ax.grid(True, alpha=0.3)

@@ -30,7 +30,8 @@ TRACKS = "tracks"
 FIGURE_COLUMNS = (
     "mission_complete", "mission_time_s", "sim_time_s",
     "loiter_error_max_m", "circle_error_max_m", "circle_error_rms_m", "path_deviation_max_m",
-    "mid_leg_cross_track_rms_m", "mid_leg_cross_track_max_m", "fill_distance_max_m", "samples_taken", "samples_within_tol",
+    "mid_leg_cross_track_rms_m", "mid_leg_cross_track_max_m", "fill_distance_max_m", "samples_taken",
+    "samples_within_tol",
     "launches", "launches_within_tol", "launch_distance_error_m", "launch_bearing_error_deg",
     "home_distance_m", "max_yaw_rate_degps", "mean_sog_mps", "path_extent_m", "displacement_m",
     "heading_change_deg", "failsafe_events", "warnings",

@@ -114,14 +114,15 @@ def run_campaign(path: Path | str, runs: int, out: Path | str, *, scheduler: str
     print(f"campaign {spec.name}: {already} of {runs} runs already in {out}; {len(todo)} to run",
           file=sys.stderr, flush=True)
     t0 = time.perf_counter()
-    stats = {"ran": 0, "lost": 0, "ok": 0, "sim_s": 0.0}
+    stats: dict[str, int] = {"ran": 0, "lost": 0, "ok": 0}
+    sim_s = [0.0]
 
     def save(row: dict[str, Any]) -> None:
         row["finished_unix_s"] = round(time.time(), 3)
         results.append([row])
         stats["ran"] += 1
         stats["ok"] += bool(row.get("success"))
-        stats["sim_s"] += float(row.get("sim_time_s") or 0.0)
+        sim_s[0] += float(row.get("sim_time_s") or 0.0)
 
     use_batch = spec.batch is True or (spec.batch == "auto" and maneuver.batch_applies(spec))
     if spec.batch is True and not maneuver.batch_applies(spec):
@@ -155,5 +156,5 @@ def run_campaign(path: Path | str, runs: int, out: Path | str, *, scheduler: str
                     save(row)
                     bar.update(1)
     return CampaignOutcome(runs=runs, already_done=already, ran=stats["ran"], lost=stats["lost"],
-                           successes=stats["ok"], sim_s=round(stats["sim_s"], 1),
+                           successes=stats["ok"], sim_s=round(sim_s[0], 1),
                            wall_s=round(time.perf_counter() - t0, 2), batch=use_batch, workers=n_workers)

@@ -92,9 +92,9 @@ def test_a_campaign_runs_on_a_separate_dask_scheduler_and_worker_and_is_reported
         tiny_campaign: Path, tmp_path: Path, usv_env: dict[str, str], dask_cluster: tuple[str, str]) -> None:
     scheduler, worker = dask_cluster
     out = tmp_path / "out"
-    proc = subprocess.run([*usv_command(), "campaign", "run", str(tiny_campaign), "--runs", "2", "--out", str(out),
-                           "--scheduler", scheduler, "--no-progress"], env=usv_env, capture_output=True,
-                          text=True, timeout=GUARD_S)
+    proc = subprocess.run([*usv_command(), "campaign", "run", str(tiny_campaign), "--runs", "2", "--out",
+                           str(out), "--scheduler", scheduler, "--no-progress"], env=usv_env,
+                          capture_output=True, text=True, timeout=GUARD_S)
     assert proc.returncode == 0, proc.stderr
     rows = _rows(out)
     assert sorted(int(r["index"]) for r in rows) == [0, 1]
@@ -108,14 +108,15 @@ def test_a_campaign_runs_on_a_separate_dask_scheduler_and_worker_and_is_reported
     assert (out / "tracks" / "00000.json").exists()
 
     report = tmp_path / "report" / "tiny.md"
-    proc = subprocess.run([*usv_command(), "campaign", "report", str(out), "--out", str(report)], env=usv_env,
-                          capture_output=True, text=True, timeout=GUARD_S)
+    proc = subprocess.run([*usv_command(), "campaign", "report", str(out), "--out", str(report)],
+                          env=usv_env, capture_output=True, text=True, timeout=GUARD_S)
     assert proc.returncode == 0, proc.stderr
     text = report.read_text(encoding="utf-8")
     successes = sum(r["success"] == "1" for r in rows)
     assert f"success: **{successes} / 2 = {50.0 * successes:.1f} %**" in text
     assert "| circle_error_max_m | 2 |" in text
-    for png in ("tiny_success_vs_current.png", "tiny_figures_vs_current_speed_mps.png", "tiny_worst_tracks.png"):
+    for png in ("tiny_success_vs_current.png", "tiny_figures_vs_current_speed_mps.png",
+                "tiny_worst_tracks.png"):
         data = (report.parent / png).read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000, png
         assert f"({png})" in text

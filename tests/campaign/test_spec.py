@@ -41,7 +41,8 @@ def test_a_run_draws_the_same_sample_whatever_the_campaign_size_and_runs_differ(
 
 
 @pytest.mark.parametrize(("change", "message"), [
-    ({"distributions": {"current_speed_mps": {"uniform": [0.0, 9.0]}}}, "current_speed_mps: 9 outside [0, 5]"),
+    ({"distributions": {"current_speed_mps": {"uniform": [0.0, 9.0]}}},
+     "current_speed_mps: 9 outside [0, 5]"),
     ({"distributions": {"tide": 1.0}}, "tide: unknown variable"),
     ({"distributions": {"wind_speed_mps": {"gamma": [1, 2]}}}, "accepted: a number or one of"),
     ({"mission": {"script": "water_sampling", "options": {"volume": -5}}}, "--volume"),
