@@ -34,3 +34,19 @@ def test_batch_does_not_apply_with_wind_or_varying_payload() -> None:
     assert not maneuver.batch_applies(_spec("turn", wind_speed_mps=3.0))  # type: ignore[arg-type]
     assert not maneuver.batch_applies(_spec("turn", payload_kg={"choice": [0, 30]}))  # type: ignore[arg-type]
     assert maneuver.batch_applies(_spec("zigzag", payload_kg=30.0))  # type: ignore[arg-type]
+
+
+def test_usv_bench_reports_campaign_throughput(usv_env: dict[str, str]) -> None:
+    import json
+    import subprocess
+
+    from tests.conftest import usv_command
+
+    proc = subprocess.run([*usv_command(), "bench", "campaign", "--quick"], capture_output=True, text=True,
+                          env=usv_env, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    figures = json.loads(proc.stdout)["benchmarks"]["campaign"]
+    sitl, man = figures["sitl"], figures["maneuver"]
+    assert sitl["runs_with_errors"] == 0 and sitl["sim_s_total"] > 2 * 20.0
+    assert sitl["sim_s_per_wall_s_total"] > 0 and sitl["sim_s_per_wall_s_per_worker"] > 0
+    assert man["batch_sim_s_per_wall_s"] > 0 and man["per_run_sim_s_per_wall_s"] > 0
