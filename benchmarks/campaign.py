@@ -55,7 +55,8 @@ def _sitl(runs: int, workers: int) -> dict[str, Any]:
     return {"runs": runs, "workers": workers, "sim_s_total": outcome.sim_s, "campaign_wall_s": outcome.wall_s,
             "sim_s_per_wall_s_total": round(outcome.sim_s / outcome.wall_s, 1),
             "sim_s_per_wall_s_per_worker": round(statistics.median(per_run), 1) if per_run else None,
-            "run_wall_s_median": round(statistics.median(float(r["wall_s"]) for r in rows), 2) if rows else None,
+            "run_wall_s_median": (round(statistics.median(float(r["wall_s"]) for r in rows), 2) if rows
+                                  else None),
             "runs_with_errors": sum(bool(r["error"]) for r in rows)}
 
 

@@ -17,7 +17,8 @@ def _errors(scale: float) -> list[tuple[float, float, float]]:
     for _ in range(200):
         m = model.measure(state, 0.01)
         true_vn = 2.0 * math.cos(1.0)
-        out.append((m.north_m - 30.0, m.vn_mps - true_vn, (m.heading_deg - math.degrees(1.0) + 180) % 360 - 180))
+        heading_error_deg = (m.heading_deg - math.degrees(1.0) + 180) % 360 - 180
+        out.append((m.north_m - 30.0, m.vn_mps - true_vn, heading_error_deg))
     return out
 
 
