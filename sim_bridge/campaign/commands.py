@@ -19,7 +19,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     run.add_argument("--scheduler", default=None, metavar="ADDRESS",
                      help="an existing Dask scheduler, e.g. tcp://10.0.0.5:8786 (default: a local cluster)")
     run.add_argument("--workers", type=int, default=None, metavar="N",
-                     help="local cluster: worker processes (default: one per core)")
+                     help="local cluster: worker processes (default: one per core; ignored with --scheduler)")
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
     rep = sub.add_parser("report", help="Markdown summary with PNG plots of a campaign's results")
     rep.add_argument("dir", type=Path, metavar="DIR", help="results directory of 'usv campaign run'")

@@ -19,6 +19,18 @@ Figures come from the simulator's truth log (:class:`sim_bridge.truthlog.TruthLo
 success criteria from ``missions/rescue.py`` (:func:`missions.rescue.launch_errors`,
 :func:`missions.rescue.launch_failures`).  Success repeats the scripts' criteria (see
 ``missions/README.md``) with the script's tolerances from the campaign's options.
+
+* ``circle_error_max_m`` / ``_rms_m``: :func:`benchmarks.nav_metrics.sampling` (Fig. 13's distance
+  from the commanded circle, from the first time within radius + 0.5 m of each point until the item
+  is done); ``fill_distance_max_m`` the truth's largest distance from a point while its bottle filled;
+* ``path_deviation_max_m``, ``mid_leg_cross_track_*``: :func:`benchmarks.nav_metrics.square` on the
+  plan's legs (sampling: home -> P1 -> ... -> P4, circling included in the deviation; rescue: home ->
+  slow-down waypoint -> launch point);
+* ``loiter_error_max_m`` (rescue): :func:`benchmarks.nav_metrics.arrival`'s largest distance from the
+  launch point after first coming within ``--launch-tol`` of it, until the hold ends (or the run
+  stops): station keeping while aiming, firing and holding;
+* launch figures from the simulator's launch event (true position and heading when the launcher
+  fired); samples from the vehicle's own sample log, as the script judges them.
 """
 
 from __future__ import annotations
