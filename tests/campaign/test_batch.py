@@ -36,6 +36,7 @@ def test_batch_does_not_apply_with_wind_or_varying_payload() -> None:
     assert maneuver.batch_applies(_spec("zigzag", payload_kg=30.0))  # type: ignore[arg-type]
 
 
+@pytest.mark.integration
 def test_usv_bench_reports_campaign_throughput(usv_env: dict[str, str]) -> None:
     import json
     import subprocess
