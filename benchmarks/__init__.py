@@ -15,5 +15,6 @@ BENCHMARKS: dict[str, str] = {
     "sim_sitl": "benchmarks.sim_sitl",
     "control": "benchmarks.control",
     "nav": "benchmarks.nav",
+    "campaign": "benchmarks.campaign",
 }
 """Benchmark name -> module with ``run(quick: bool) -> dict``."""

@@ -25,6 +25,7 @@ COMMANDS: dict[str, str] = {
     "params": "companion.commands.params",
     "samples": "companion.commands.samples",
     "identify": "companion.commands.identify",
+    "campaign": "sim_bridge.campaign.commands",
 }
 """Subcommand name -> module implementing it."""
 

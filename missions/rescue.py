@@ -27,6 +27,7 @@ from typing import Any
 
 from mavsdk.plugins.mission_raw import MissionItem
 
+from companion.guidance.geo import LocalFrame
 from mavlink_dialect import UsvCmd
 from missions.common import Boat, MissionError, add_common_arguments, finish, fly, parse_pair
 
@@ -83,8 +84,13 @@ def _item(seq: int, command: int, lat_lon: tuple[float, float] | None = None, *p
 
 def plan(boat: Boat, casualty_ne: tuple[float, float], args: argparse.Namespace) -> dict[str, Any]:
     """The mission items and the geometry they were planned from (north-east metres from home)."""
-    frame = boat.frame()
-    here = boat.position_ne()
+    return plan_from(boat.frame(), boat.position_ne(), casualty_ne, args)
+
+
+def plan_from(frame: LocalFrame, here: tuple[float, float], casualty_ne: tuple[float, float],
+              args: argparse.Namespace) -> dict[str, Any]:
+    """:func:`plan` for a boat at ``here`` (north-east metres in ``frame``); also used by campaigns
+    (``usv campaign``), which fly the same plan in-process."""
     dn, de = casualty_ne[0] - here[0], casualty_ne[1] - here[1]
     dist = math.hypot(dn, de)
     if dist <= args.standoff:
@@ -106,7 +112,8 @@ def plan(boat: Boat, casualty_ne: tuple[float, float], args: argparse.Namespace)
     ]
     names = ["approach speed", "approach", "slow down", "stop, aim and fire", "hold: person pulled alongside",
              "towing speed", "tow home"]
-    return {"items": items, "names": names, "launch_ne": launch_ne, "bearing_deg": bearing_deg}
+    return {"items": items, "names": names, "launch_ne": launch_ne, "slow_ne": slow_ne,
+            "bearing_deg": bearing_deg}
 
 
 async def check_launcher(boat: Boat) -> dict[str, Any]:
@@ -122,6 +129,36 @@ async def check_launcher(boat: Boat) -> dict[str, Any]:
     return status
 
 
+def launch_errors(at_ne: tuple[float, float], heading_deg: float, casualty_ne: tuple[float, float],
+                  launch_ne: tuple[float, float]) -> dict[str, float]:
+    """Where a launch happened against the plan: distance from the planned launch point, range to
+    the casualty and the bow's angle off the casualty (the figures of the success criteria)."""
+    to_casualty = (casualty_ne[0] - at_ne[0], casualty_ne[1] - at_ne[1])
+    bearing_deg = math.degrees(math.atan2(to_casualty[1], to_casualty[0])) % 360.0
+    return {"launch_north_m": round(at_ne[0], 2), "launch_east_m": round(at_ne[1], 2),
+            "distance_error_m": round(math.dist(at_ne, launch_ne), 2),
+            "range_to_casualty_m": round(math.hypot(*to_casualty), 2),
+            "heading_deg": round(heading_deg % 360.0, 1),
+            "bearing_error_deg": round(abs((heading_deg - bearing_deg + 180.0) % 360.0 - 180.0), 1)}
+
+
+def launch_failures(report: dict[str, Any], args: argparse.Namespace) -> list[str]:
+    """The rescue's success criteria on a launch report (empty: met)."""
+    failures = []
+    if not report["launched"]:
+        failures.append("the launcher did not fire (see the vehicle's messages)")
+    else:
+        if report["distance_error_m"] > args.launch_tol:
+            failures.append(f"launched {report['distance_error_m']} m from the planned point "
+                            f"(tolerance {args.launch_tol} m)")
+        if report["bearing_error_deg"] > args.bearing_tol:
+            failures.append(f"bow {report['bearing_error_deg']} deg off the casualty at launch "
+                            f"(tolerance {args.bearing_tol} deg)")
+        if report["range_to_casualty_m"] > ROPE_RANGE_M:
+            failures.append(f"casualty {report['range_to_casualty_m']} m away: beyond the rope's range")
+    return failures
+
+
 def launch_report(boat: Boat, before: dict[str, Any], casualty_ne: tuple[float, float],
                   p: dict[str, Any], start_s: float, station_s: float | None) -> dict[str, Any]:
     """Where, when and how the launch happened, from USV_LAUNCHER_STATUS (vehicle figures)."""
@@ -131,17 +168,11 @@ def launch_report(boat: Boat, before: dict[str, Any], casualty_ne: tuple[float, 
     frame = boat.frame()
     at_ne = frame.to_ne(now["last_launch_lat"] / 1e7, now["last_launch_lon"] / 1e7)
     heading_deg = now["last_launch_heading"] / 100.0
-    to_casualty = (casualty_ne[0] - at_ne[0], casualty_ne[1] - at_ne[1])
-    bearing_deg = math.degrees(math.atan2(to_casualty[1], to_casualty[0])) % 360.0
     launch_s = boat.vehicle_time_s(now["last_launch_time_unix_usec"])
     return {
         "launched": True,
         "shots_used": before["shots_left"] - now["shots_left"],
-        "launch_north_m": round(at_ne[0], 2), "launch_east_m": round(at_ne[1], 2),
-        "distance_error_m": round(math.dist(at_ne, p["launch_ne"]), 2),
-        "range_to_casualty_m": round(math.hypot(*to_casualty), 2),
-        "heading_deg": round(heading_deg, 1),
-        "bearing_error_deg": round(abs((heading_deg - bearing_deg + 180.0) % 360.0 - 180.0), 1),
+        **launch_errors(at_ne, heading_deg, casualty_ne, p["launch_ne"]),
         "time_to_casualty_s": round(launch_s - start_s, 1),
         "time_to_station_s": None if station_s is None else round(station_s - start_s, 1),
     }
@@ -218,18 +249,7 @@ async def rescue(boat: Boat, args: argparse.Namespace) -> int:
         "mission_time_s": round(boat.now_s() - start_s, 1),
         "home_distance_at_disarm_m": round(home_m, 2), "wp_radius_m": wp_radius_m,
     }
-    failures = []
-    if not report["launched"]:
-        failures.append("the launcher did not fire (see the vehicle's messages)")
-    else:
-        if report["distance_error_m"] > args.launch_tol:
-            failures.append(f"launched {report['distance_error_m']} m from the planned point "
-                            f"(tolerance {args.launch_tol} m)")
-        if report["bearing_error_deg"] > args.bearing_tol:
-            failures.append(f"bow {report['bearing_error_deg']} deg off the casualty at launch "
-                            f"(tolerance {args.bearing_tol} deg)")
-        if report["range_to_casualty_m"] > ROPE_RANGE_M:
-            failures.append(f"casualty {report['range_to_casualty_m']} m away: beyond the rope's range")
+    failures = launch_failures(report, args)
     return finish(NAME, summary, failures, args.json, print_summary)
 
 

@@ -32,6 +32,7 @@ from typing import Any
 
 from mavsdk.plugins.mission_raw import MissionItem
 
+from companion.guidance.geo import LocalFrame
 from mavlink_dialect import UsvCmd
 from missions.common import Boat, MissionError, add_common_arguments, finish, fly, parse_pair
 
@@ -75,9 +76,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     return args
 
 
-def plan(boat: Boat, points_ne: list[tuple[float, float]], radius_m: float,
+def plan(frame: LocalFrame, points_ne: list[tuple[float, float]], radius_m: float,
          args: argparse.Namespace) -> list[MissionItem]:
-    frame = boat.frame()
+    """Transit speed, one USV_CMD_NAV_SAMPLE_HERE per point (north-east metres in ``frame``), return
+    to launch; also flown in-process by campaigns (``usv campaign``)."""
     items = [MissionItem(0, FRAME_MISSION, CMD_DO_CHANGE_SPEED, 1, 1, 1.0, args.speed, -1.0, 0.0,
                          0, 0, 0.0, 0)]
     for bottle, (north_m, east_m) in enumerate(points_ne, start=1):
@@ -196,7 +198,7 @@ async def sample(boat: Boat, args: argparse.Namespace) -> int:
     print(f"{NAME}: {BOTTLES} points, circles of {radius_m:g} m, samples inside {args.accept_radius:g} m",
           flush=True)
     names = ["transit speed", *(f"sample at P{i}" for i in range(1, BOTTLES + 1)), "return home"]
-    start_s = await boat.run_raw_mission(plan(boat, points_ne, radius_m, args), args.timeout,
+    start_s = await boat.run_raw_mission(plan(boat.frame(), points_ne, radius_m, args), args.timeout,
                                          lambda seq: names[seq])
     track_err = tracking(boat, points_ne, radius_m, args.accept_radius)
     records = sample_records(boat, points_ne)

@@ -99,7 +99,11 @@ class GpsInsModel:
     """Turns the true plant state into noisy measurements and XW-GI sentences."""
 
     def __init__(self, seed: int, home_lat_deg: float = 41.77, home_lon_deg: float = 123.43,
-                 rate_hz: int = 100, start_unix_s: float = 1.7e9) -> None:
+                 rate_hz: int = 100, start_unix_s: float = 1.7e9, noise_scale: float = 1.0) -> None:
+        """``noise_scale``: every noise level of Table 2 times this (campaigns vary it; 1: the
+        device's figures, bit-identical to the unscaled model)."""
+        if not 0.0 <= noise_scale <= 100.0:
+            raise ValueError(f"GPS-INS noise scale {noise_scale} outside [0, 100]")
         if rate_hz not in SUPPORTED_RATES_HZ:
             raise ValueError(f"GPS-INS rate {rate_hz} Hz not one of {SUPPORTED_RATES_HZ}")
         self.rng = np.random.default_rng([seed, 0x9125])
@@ -109,7 +113,11 @@ class GpsInsModel:
         self.rate_hz = rate_hz
         self.start_unix_s = start_unix_s
         self.faults = SensorFaults()
-        self.gyro_bias_degps = float(self.rng.normal(0.0, 0.1))
+        k = self.noise_scale = noise_scale
+        self._sig_pos_m, self._sig_pos_ppm = 0.017 * k, 1e-6 * k
+        self._sig_vel_mps, self._sig_hdg_deg, self._sig_att_deg = 0.1 * k, 0.2 * k, 0.5 * k
+        self._sig_gyro_degps, self._sig_acc_g = 0.05 * k, 0.002 * k
+        self.gyro_bias_degps = float(self.rng.normal(0.0, 0.1)) * k
         self._pos_err_n = self._pos_err_e = 0.0
         self._dr_pos: tuple[float, float] | None = None
         self._last_gyro = 0.0
@@ -131,14 +139,15 @@ class GpsInsModel:
         n = self._noise.draw
         # position: Gauss-Markov error, 2 cm CEP (~1.7 cm per axis) + 1 ppm of range
         a = math.exp(-dt_s / 10.0)
-        sig = 0.017 + 1e-6 * math.hypot(s.north_m, s.east_m)
+        sig = self._sig_pos_m + self._sig_pos_ppm * math.hypot(s.north_m, s.east_m)
         w = sig * math.sqrt(1.0 - a * a)
         err_n = self._pos_err_n = a * self._pos_err_n + w * n()
         err_e = self._pos_err_e = a * self._pos_err_e + w * n()
         psi, u, v = s.psi_rad, s.u_mps, s.v_mps
         c, sn = math.cos(psi), math.sin(psi)
-        vn = u * c - v * sn + 0.1 * n()
-        ve = u * sn + v * c + 0.1 * n()
+        sig_vel = self._sig_vel_mps
+        vn = u * c - v * sn + sig_vel * n()
+        ve = u * sn + v * c + sig_vel * n()
         if f.gps_outage:
             # INS dead reckoning from the last fix: integrates noisy velocity, drifts
             if self._dr_pos is None:
@@ -151,17 +160,18 @@ class GpsInsModel:
             self._dr_pos = None
             north, east = s.north_m + err_n, s.east_m + err_e
             status, nsv = 0x0B, 14
-        heading = (math.degrees(psi) + 0.2 * n() + f.heading_bias_deg) % 360.0
+        heading = (math.degrees(psi) + self._sig_hdg_deg * n() + f.heading_bias_deg) % 360.0
         if not f.gyro_stuck:
-            gz = -math.degrees(s.r_radps) + self.gyro_bias_degps + 0.05 * n()
+            gz = -math.degrees(s.r_radps) + self.gyro_bias_degps + self._sig_gyro_degps * n()
             self._last_gyro = max(-100.0, min(100.0, gz))
         g = 9.81
-        acc_x = (s.v_dot_mps2 + s.u_r_mps * s.r_radps) / g + 0.002 * n()
-        acc_y = (s.u_dot_mps2 - s.v_r_mps * s.r_radps) / g + 0.002 * n()
+        acc_x = (s.v_dot_mps2 + s.u_r_mps * s.r_radps) / g + self._sig_acc_g * n()
+        acc_y = (s.u_dot_mps2 - s.v_r_mps * s.r_radps) / g + self._sig_acc_g * n()
         self.samples += 1
-        pitch = 0.5 * n()
+        pitch = self._sig_att_deg * n()
         return Measurement(s.t_s, self.home_lat_deg + north / self._m_per_deg_lat,
-                           self.home_lon_deg + east / self._m_per_deg_lon, heading, pitch, 0.5 * n(), ve, vn,
+                           self.home_lon_deg + east / self._m_per_deg_lon, heading, pitch,
+                           self._sig_att_deg * n(), ve, vn,
                            self._last_gyro, acc_x, acc_y, nsv, status, north, east)
 
     def gps_time(self, t_s: float) -> tuple[int, float]:
@@ -174,8 +184,8 @@ class GpsInsModel:
         """(GTIMU bytes, GPFPD bytes, GPS time string of the sample)."""
         week, sow = self.gps_time(m.t_s)
         stamp = b"%.3f" % sow
-        gyro_x = 0.05 * self._noise.draw()
-        gyro_y = 0.05 * self._noise.draw()
+        gyro_x = self._sig_gyro_degps * self._noise.draw()
+        gyro_y = self._sig_gyro_degps * self._noise.draw()
         imu = frame(GTIMU_FORMAT % (week, stamp, gyro_x, gyro_y, m.gyro_z_degps, m.acc_x_g, m.acc_y_g))
         fpd = frame(GPFPD_FORMAT % (week, stamp, m.heading_deg, m.pitch_deg, m.roll_deg, m.lat_deg, m.lon_deg,
                                     m.ve_mps, m.vn_mps, m.nsv, m.nsv, m.status))

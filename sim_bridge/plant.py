@@ -149,11 +149,14 @@ class BatchPlant:
 
     Disturbances here are the current only (wind and waves would need per-boat force
     evaluation; use :class:`BoatPlant` for those).  Arrays have shape (N,).
+    ``current_ned_mps``: a steady current per boat (north and east arrays, m/s) instead of the
+    environment's one field (campaigns step boats in different currents together).
     """
 
     def __init__(self, n: int, params: BoatParams | None = None, disturbances: DisturbanceSpec | None = None,
-                 seed: int = 1) -> None:
+                 seed: int = 1, *, current_ned_mps: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         self.n = n
+        self.current_ned_mps = current_ned_mps
         self.params = params or BoatParams()
         self.derived = Derived.of(self.params)
         self.env = Environment(disturbances or DisturbanceSpec(), self.params, seed)
@@ -180,7 +183,7 @@ class BatchPlant:
         self.nozzle_rad += np.clip(cmd - self.nozzle_rad, -lim, lim)
         jet_speed = p.jet_speed_max_mps * self.engine_rpm / p.engine_rpm_max
         self.env.advance(dt_s)
-        cn, ce = self.env.current_ned_mps()
+        cn, ce = self.env.current_ned_mps() if self.current_ned_mps is None else self.current_ned_mps
         out = rk4_step(self.north_m, self.east_m, self.psi_rad, self.u_r_mps, self.v_r_mps, self.r_radps,
                        dt_s, jet_speed, self.nozzle_rad, (0.0, 0.0, 0.0), cn, ce, self.derived, VECTOR)
         self.north_m, self.east_m, psi, self.u_r_mps, self.v_r_mps, self.r_radps = out

@@ -41,10 +41,10 @@ class SimulatedBoat:
     def __init__(self, *, seed: int = 1, disturbances: DisturbanceSpec | None = None,
                  params: BoatParams | None = None, home_lat_deg: float = 41.77, home_lon_deg: float = 123.43,
                  psi0_rad: float = 0.0, gnss_rate_hz: int = 100, start_unix_s: float = 1.7e9,
-                 step_s: float = PHYSICS_STEP_S) -> None:
+                 step_s: float = PHYSICS_STEP_S, noise_scale: float = 1.0) -> None:
         self.step_s = step_s
         self.plant = BoatPlant(params, disturbances, seed, psi0_rad=psi0_rad)
-        self.gpsins = GpsInsModel(seed, home_lat_deg, home_lon_deg, gnss_rate_hz, start_unix_s)
+        self.gpsins = GpsInsModel(seed, home_lat_deg, home_lon_deg, gnss_rate_hz, start_unix_s, noise_scale)
         self._sample_every = max(1, round(1.0 / (gnss_rate_hz * step_s)))
         """Physics steps per GPS-INS sample (as :meth:`GpsInsModel.due`)."""
         self.launcher = Launcher()

@@ -94,8 +94,10 @@ class SitlHarness:
                  home: tuple[float, float] = (41.77, 123.43), full_stack: bool = False,
                  transport: str = "memory", config: Config | None = None,
                  params: dict[str, float] | None = None, state_dir: Path | None = None,
-                 speedup: float = 0.0, extra_payloads: Sequence[PayloadDef] = ()) -> None:
-        """``extra_payloads``: payloads added to the built-in ones (full stack)."""
+                 speedup: float = 0.0, extra_payloads: Sequence[PayloadDef] = (),
+                 noise_scale: float = 1.0) -> None:
+        """``extra_payloads``: payloads added to the built-in ones (full stack); ``noise_scale``:
+        the GPS-INS noise levels times this (1: the device's)."""
         if transport not in ("memory", "pty"):
             raise ValueError(f"transport must be 'memory' or 'pty', not {transport!r}")
         self._tmp: str | None = None
@@ -113,7 +115,8 @@ class SitlHarness:
         self.boat = SimulatedBoat(seed=seed, disturbances=spec_from_strings(wind, current, waves),
                                   params=BoatParams().with_payload(payload_kg), home_lat_deg=home[0],
                                   home_lon_deg=home[1], psi0_rad=math.radians(psi0_deg),
-                                  gnss_rate_hz=gnss_rate_hz, start_unix_s=START_UNIX_S)
+                                  gnss_rate_hz=gnss_rate_hz, start_unix_s=START_UNIX_S,
+                                  noise_scale=noise_scale)
         self.transport = transport
         self.full_stack = full_stack
         self.speedup = speedup

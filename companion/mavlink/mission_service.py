@@ -170,34 +170,57 @@ class MissionService:
         if up.expected < up.count:
             self._request(up)
             return
-        verdict = self._convention(up)
-        if verdict.convention is None:
-            self._refuse(up, v.ItemProblem(v.INVALID, verdict.reason))
-            return
-        home_item = verdict.convention is convention.Convention.HOME_PLACEHOLDER
-        problem = self.validator.validate_plan(up.items, home_first=home_item)
+        problem = self._store(mtype, up.items)
         if problem is not None:
             self._refuse(up, problem)
             return
         del self.uploads[(id(link), mtype)]
-        try:
-            self.store.replace(mtype, up.items, home_item=home_item)
-        except OSError as exc:
-            self._ack(link, up.peer, v.ERROR, mtype)
-            self.vehicle.status(f"Mission not saved: {exc}", Severity.WARNING)
-            return
-        self.completed_uploads += 1
         self._ack(link, up.peer, v.ACCEPTED, mtype)
+
+    def install(self, mission_type: int, items: list[MissionItem]) -> v.ItemProblem | None:
+        """Install a complete plan as a finished upload does, for a client in the same process
+        (``usv campaign``): every item checked as it would be on arrival, then item 0's convention,
+        the whole plan, storage and the accepting STATUSTEXT.  The problem (nothing installed, and a
+        STATUSTEXT saying why) or ``None``."""
+        items = [item.with_seq(seq) for seq, item in enumerate(items)]
+        for item in items:
+            maybe_home = (self.home_first and item.seq == 0 and mission_type == MissionType.MISSION
+                          and convention.looks_like_home(item))
+            problem = self.validator.validate_item(item, home_item=maybe_home)
+            if problem is not None:
+                self.vehicle.status(f"Mission upload refused: {problem.reason}", Severity.WARNING)
+                return problem
+        problem = self._store(mission_type, items)
+        if problem is not None:
+            self.vehicle.status(f"Mission upload refused: {problem.reason}", Severity.WARNING)
+        return problem
+
+    def _store(self, mtype: int, items: list[MissionItem]) -> v.ItemProblem | None:
+        """Item 0's convention, the whole plan, storage; the problem, or ``None`` and the plan stored
+        (and announced)."""
+        verdict = self._convention(mtype, items)
+        if verdict.convention is None:
+            return v.ItemProblem(v.INVALID, verdict.reason)
+        home_item = verdict.convention is convention.Convention.HOME_PLACEHOLDER
+        problem = self.validator.validate_plan(items, home_first=home_item)
+        if problem is not None:
+            return problem
+        try:
+            self.store.replace(mtype, items, home_item=home_item)
+        except OSError as exc:
+            return v.ItemProblem(v.ERROR, f"mission not saved: {exc}")
+        self.completed_uploads += 1
         kind = MissionType(mtype).name.lower()
         how = f" ({verdict.reason})" if mtype == MissionType.MISSION and self.home_first else ""
-        self.vehicle.status(f"{kind.capitalize()} received: {up.count} items{how}")
+        self.vehicle.status(f"{kind.capitalize()} received: {len(items)} items{how}")
+        return None
 
-    def _convention(self, up: Upload) -> convention.Verdict:
+    def _convention(self, mtype: int, items: list[MissionItem]) -> convention.Verdict:
         """How item 0 of a complete upload is to be read (always plain without home-first)."""
-        if not (self.home_first and up.mission_type == MissionType.MISSION):
+        if not (self.home_first and mtype == MissionType.MISSION):
             return convention.Verdict(convention.Convention.PLAIN, "")
         home = self.vehicle.home
-        return convention.classify(up.items, None if home is None else (home.lat_deg, home.lon_deg))
+        return convention.classify(items, None if home is None else (home.lat_deg, home.lon_deg))
 
     async def run(self) -> None:
         """Repeat unanswered item requests; give up after :attr:`max_retries`."""
