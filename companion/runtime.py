@@ -129,27 +129,39 @@ def build_companion(ctx: Context, hardware: HardwareLinks | None = None,
 
 
 class ReadyBanner(BaseService):
-    """Tells the operator where ground stations connect, once every service has started."""
+    """Tells the operator where ground stations connect, once every service has started.
+
+    Only endpoints that are really open are announced as such: a TCP port that could not be
+    bound is printed as not available, with the reason (``LinkManager.unavailable``).
+    """
 
     name = "ready-banner"
 
-    def __init__(self, ctx: Context, title: str) -> None:
+    def __init__(self, ctx: Context, title: str, links: LinkManager | None = None) -> None:
         self.ctx = ctx
         self.title = title
+        self.links = links
 
     async def start(self) -> None:
+        print(self.text(), flush=True)
+        sys.stdout.flush()
+
+    def text(self) -> str:
         cfg = self.ctx.config
         lines = [f"{self.title} ready"]
         for target in cfg["links.udp_targets"]:
             port = parse_host_port(target)[1]
             who = {14550: "QGroundControl", 14540: "MAVSDK (udpin://0.0.0.0:14540)"}.get(port, "GCS")
             lines.append(f"  MAVLink UDP -> {target}  ({who})")
-        if cfg["links.tcp_listen"]:
-            lines.append(f"  MAVLink TCP server {cfg['links.tcp_listen']}  (MAVProxy: "
-                         f"mavproxy.py --master=tcp:{cfg['links.tcp_listen']})")
+        tcp = cfg["links.tcp_listen"]
+        if tcp:
+            problem = self.links.unavailable.get(f"TCP server {tcp}") if self.links is not None else None
+            if problem is not None or (self.links is not None and self.links.tcp is None):
+                lines.append(f"  MAVLink TCP server {tcp} NOT AVAILABLE ({problem or 'not open'})")
+            else:
+                lines.append(f"  MAVLink TCP server {tcp}  (MAVProxy: mavproxy.py --master=tcp:{tcp})")
         for port in cfg["links.serial"]:
             lines.append(f"  MAVLink serial {port}")
         lines.append(f"  state directory {cfg.state_dir()}")
         lines.append("  press Ctrl-C to stop")
-        print("\n".join(lines), flush=True)
-        sys.stdout.flush()
+        return "\n".join(lines)

@@ -68,6 +68,8 @@ class LinkManager(BaseService):
         self.wall = WallClock()
         """The wall clock next to ``ctx.clock``: ground stations pace their heartbeats by it."""
         self._tlog_dir: Path | None = None
+        self.unavailable: dict[str, str] = {}
+        """Configured endpoints that could not be opened -> why (the ready banner says so)."""
         self._session = time.strftime("%Y%m%d-%H%M%S", time.gmtime(ctx.clock.unix_time_s()))
 
     # -- links ----------------------------------------------------------------------------
@@ -136,7 +138,9 @@ class LinkManager(BaseService):
             try:
                 await self.tcp.open()
             except OSError as exc:
-                log.error("TCP server %s not started: %s", cfg["links.tcp_listen"], exc)
+                reason = exc.strerror or str(exc)
+                log.error("TCP server %s not started: cannot bind (%s)", cfg["links.tcp_listen"], reason)
+                self.unavailable[f"TCP server {cfg['links.tcp_listen']}"] = f"cannot bind: {reason}"
                 self.tcp = None
         for spec in cfg["links.serial"]:
             device, baud = parse_serial(spec, SERIAL_DEFAULT_BAUD)
