@@ -17,6 +17,9 @@ HELP = "run the simulated boat together with the companion (software in the loop
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_config_argument(parser)
     add_sim_arguments(parser)
+    parser.add_argument("--signing-key", type=Path, default=None, metavar="FILE",
+                        help="MAVLink 2 signing key file (64 hex characters, chmod 600); sets "
+                             "[security] signing_key_file")
     parser.add_argument("--duration", type=float, default=None,
                         help="stop after this many seconds of simulated time")
     parser.add_argument("--truth-log", type=Path, default=None, metavar="FILE.csv",

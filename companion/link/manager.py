@@ -32,7 +32,9 @@ from companion.config import parse_host_port, parse_serial
 from companion.link import streams
 from companion.link.endpoint import Dispatcher, Link
 from companion.link.gcs_presence import Silence
+from companion.link.signing import LinkSecurity
 from companion.link.tlog import TlogWriter
+from companion.messages import STATUS_TEXT_TOPIC, Severity, StatusText
 from companion.transport import ByteLink, SerialLink, TcpServer, UdpLink
 
 log = logging.getLogger(__name__)
@@ -60,6 +62,9 @@ class LinkManager(BaseService):
         self.system_id = int(system_id if system_id is not None else ctx.params.get("SYSID_THISMAV"))
         self.component_id = component_id
         self.dispatcher = Dispatcher()
+        self.security = LinkSecurity.from_config(ctx.config, now_s=ctx.clock.now_s, announce=self._announce)
+        """MAVLink signing and the ground stations allowed to change state (``[security]``)."""
+        self.dispatcher.on("SETUP_SIGNING", self._on_setup_signing)
         self.links: list[Link] = []
         self.udp: list[UdpLink] = []
         self.tcp: TcpServer | None = None
@@ -79,7 +84,7 @@ class LinkManager(BaseService):
             safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
             tlog = TlogWriter(self._tlog_dir / f"{self._session}-{safe}.tlog")
         link = Link(name, write, clock=self.ctx.clock, dispatcher=self.dispatcher, system_id=self.system_id,
-                    component_id=self.component_id, tlog=tlog, wall=self.wall,
+                    component_id=self.component_id, tlog=tlog, wall=self.wall, security=self.security,
                     rates=streams.StreamRates(self.stream_rates_hz, self.stream_groups))
         self.links.append(link)
         return link
@@ -99,6 +104,18 @@ class LinkManager(BaseService):
         if link is not None:
             self.drop_link(link)
             link.close()
+
+    def _announce(self, text: str, severity: Severity = Severity.WARNING) -> None:
+        self.ctx.bus.topic(STATUS_TEXT_TOPIC).publish(StatusText(self.ctx.clock.now_s(), severity, text))
+
+    def _on_setup_signing(self, link: Link, msg: Any) -> None:
+        """SETUP_SIGNING (a message without an ACK): the outcome is told by STATUSTEXT."""
+        refusal = self.security.setup_signing(link, msg)
+        if refusal is not None:
+            self._announce(refusal)
+        else:
+            state = "set" if self.security.key is not None else "disabled"
+            self._announce(f"Signing key {state} by SETUP_SIGNING on {link.name}", Severity.NOTICE)
 
     def broadcast(self, msg: Any) -> None:
         """Send one message on every link (each with its own sequence number)."""
