@@ -184,8 +184,12 @@ class Link:
         target_component = getattr(msg, "target_component", 0)
         if target_component not in (0, self.component_id):
             return
-        if self.security is not None and self.security.admit(self, msg) is not Verdict.ACCEPT:
-            return
+        if self.security is not None:
+            verdict = self.security.admit(self, msg)
+            if verdict is Verdict.DROP:
+                self.rx_dropped += 1
+            if verdict is not Verdict.ACCEPT:
+                return
         self.dispatcher.dispatch(self, msg)
 
     def close(self) -> None:
