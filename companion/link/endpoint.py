@@ -137,7 +137,7 @@ class Link:
             self.rx_frames += 1
             if self.tlog is not None:
                 with contextlib.suppress(Exception):
-                    self.tlog.write(self.clock_unix_s(), bytes(msg.get_msgbuf()))
+                    self.tlog.write(self.clock_unix_s(), bytes(msg.get_msgbuf()), received=True)
             self._receive(msg)
 
     def _reset_parser(self) -> None:
