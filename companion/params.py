@@ -89,6 +89,7 @@ class ParamStore:
         self._order = list(self._defs)
         self._values: dict[str, float] = {n: float(d.default) for n, d in self._defs.items()}
         self._listeners: list[Listener] = []
+        self._set_listeners: list[Listener] = []
         self.path = path
         self.load_warnings: list[str] = []
         if path is not None and path.exists():
@@ -142,10 +143,18 @@ class ParamStore:
                 listener(name, new)
             if persist and self.path is not None:
                 self.save()
+        for listener in tuple(self._set_listeners):
+            listener(name, new)
         return new
 
     def add_listener(self, listener: Listener) -> None:
+        """Call ``listener(name, value)`` whenever a value changes."""
         self._listeners.append(listener)
+
+    def add_set_listener(self, listener: Listener) -> None:
+        """Call ``listener(name, value)`` after every accepted set, changed or not (a reload of the
+        launcher is written with the count it already had)."""
+        self._set_listeners.append(listener)
 
     # -- persistence ----------------------------------------------------------------------
     def save(self, path: Path | None = None) -> None:
