@@ -48,6 +48,10 @@ class Dispatcher:
         else:
             self._handlers[msg_type].append(handler)
 
+    def handles(self, msg_type: str) -> bool:
+        """Some handler acts on ``msg_type`` (not counting the catch-all ones)."""
+        return bool(self._handlers.get(msg_type))
+
     def dispatch(self, link: Link, msg: Any) -> None:
         for handler in (*self._any, *self._handlers.get(msg.get_type(), ())):
             try:

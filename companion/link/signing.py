@@ -12,8 +12,9 @@ Policy (:class:`LinkSecurity`), with ``[security] require_signing = true``:
   requests, the dialect's payload commands) -- is accepted only with a valid signature whose
   timestamp is newer than the last one seen on that stream (link id, system, component) on
   *any* link, so a replayed frame is refused on a new TCP connection too.  Other frames are
-  dropped, as the spec says (no COMMAND_ACK to a sender that could not be authenticated); the
-  operator gets a STATUSTEXT at most every :data:`DROP_REPORT_S` per sending system.
+  dropped, as the spec says (no COMMAND_ACK to a sender that could not be authenticated); for a
+  message the vehicle acts on, the operator gets a STATUSTEXT at most every
+  :data:`DROP_REPORT_S` per sending system (other vehicles' traffic is dropped silently).
 * Telemetry still flows to every link, signed or not: a ground station without the key sees
   the boat (position, status, the STATUSTEXT saying why its commands are dropped) and may
   read parameters and download missions (the messages in :data:`READ_ONLY_MESSAGES` and the
@@ -308,8 +309,9 @@ class LinkSecurity:
         self.stats.dropped_by_type[msg_name] = self.stats.dropped_by_type.get(msg_name, 0) + 1
         log.info("%s: dropped %s from system %d (unsigned, wrong key or replayed)", link.name, msg_name,
                  src_system)
-        self._report(("drop", src_system),
-                     f"Signing: dropped {msg_name} from sys {src_system} (unsigned, bad key or replay)")
+        if link.dispatcher.handles(msg_name):  # not for other vehicles' traffic on a shared channel
+            self._report(("drop", src_system),
+                         f"Signing: dropped {msg_name} from sys {src_system} (unsigned, bad key or replay)")
 
     def dropped_frame(self, link: Any, frame: bytes) -> None:
         """A frame pymavlink refused (allow_unsigned_callback said no): name it from its header."""

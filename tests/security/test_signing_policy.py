@@ -55,6 +55,8 @@ class Vehicle:
                                      now_s=self.clock.now_s, announce=self.texts.append)
         self.dispatcher = Dispatcher()
         self.dispatcher.on("*", lambda link, msg: self.handled.append(msg.get_type()))
+        for acted_on in ("COMMAND_LONG", "PARAM_SET"):
+            self.dispatcher.on(acted_on, lambda link, msg: None)
         self.link = self.new_link(name)
 
     def new_link(self, name: str) -> Link:
@@ -75,6 +77,10 @@ def test_only_validly_signed_fresh_frames_change_state(tmp_path: Path) -> None:
     assert v.handled == []
     assert v.security.stats.dropped == 3 and v.link.rx_dropped == 3
     assert any("Signing: dropped" in t for t in v.texts)
+    v.texts.clear()
+    other_boat = station(None, system_id=2)
+    v.link.feed(frame(other_boat, other_boat.global_position_int_encode(0, 0, 0, 0, 0, 0, 0, 0, 0)))
+    assert v.texts == [] and v.security.stats.dropped == 4  # another vehicle's telemetry: dropped quietly
     signed_arm = frame(good, arm(good))
     v.link.feed(signed_arm)
     assert v.handled == ["COMMAND_LONG"]
