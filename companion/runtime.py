@@ -19,7 +19,7 @@ from companion.actuators.servo import ServoMap
 from companion.app import BaseService, Context, Service
 from companion.bus import Bus
 from companion.clock import Clock
-from companion.config import Config, parse_host_port
+from companion.config import Config, parse_host_port, parse_serial
 from companion.control.system import ControlSystem
 from companion.estimation.service import (
     EstimatorStage,
@@ -160,8 +160,13 @@ class ReadyBanner(BaseService):
                 lines.append(f"  MAVLink TCP server {tcp} NOT AVAILABLE ({problem or 'not open'})")
             else:
                 lines.append(f"  MAVLink TCP server {tcp}  (MAVProxy: mavproxy.py --master=tcp:{tcp})")
+        radios = {radio.device: radio for radio in self.links.serial} if self.links is not None else {}
         for port in cfg["links.serial"]:
-            lines.append(f"  MAVLink serial {port}")
+            radio = radios.get(parse_serial(port, 0)[0])
+            if radio is not None and not radio.is_open:
+                lines.append(f"  MAVLink serial {port} NOT OPEN (cannot open the device; retrying)")
+            else:
+                lines.append(f"  MAVLink serial {port}")
         lines.append(f"  state directory {cfg.state_dir()}")
         lines.append("  press Ctrl-C to stop")
         return "\n".join(lines)

@@ -52,6 +52,7 @@ def test_port_that_cannot_be_bound_is_not_announced(tmp_path: Path, usv_env: dic
         squatter.listen()
         port = squatter.getsockname()[1]
         cfg = write_config(tmp_path / "c.toml", tmp_path / "state", [free_port()], port)
+        cfg.write_text(cfg.read_text() + f'serial = ["{tmp_path}/no-such-radio:57600"]\n')
         log = tmp_path / "sitl.log"
         with sitl(cfg, usv_env, log=log):
             pass
@@ -60,3 +61,4 @@ def test_port_that_cannot_be_bound_is_not_announced(tmp_path: Path, usv_env: dic
     assert f"MAVLink TCP server 127.0.0.1:{port} NOT AVAILABLE (cannot bind" in banner, banner
     assert f"mavproxy.py --master=tcp:127.0.0.1:{port}" not in text
     assert "cannot bind" in text[:text.index("ready")]  # logged when it happened too
+    assert f"MAVLink serial {tmp_path}/no-such-radio:57600 NOT OPEN" in banner
