@@ -12,9 +12,11 @@ Bounded (:class:`TlogDirectory`), so that a flood of connections cannot fill the
   :data:`PRE_BUFFER_FRAMES` frames the vehicle sent before are kept in memory and written first;
 * a file that reaches ``USV_TLOG_FILE_MB`` is closed and the link goes on in a new part
   (``...-part2.tlog``), so no single file grows without bound;
-* after every new file and every flush, the oldest closed files are deleted while the directory
-  holds more than ``USV_TLOG_MAX_MB`` in total or more than ``links.tlog_max_files`` files
-  (open files are never deleted).
+* after every new file and every flush, closed files are deleted while the directory holds more
+  than ``USV_TLOG_MAX_MB`` in total or more than ``links.tlog_max_files`` files: small ones
+  (under :data:`SMALL_LOG_BYTES`) first, each group oldest first.  Open files are never deleted,
+  and a large log is deleted for the file count only when large logs alone exceed it, so many
+  short connections at once cannot push out a real session's log.
 """
 
 from __future__ import annotations
@@ -33,6 +35,9 @@ _STAMP = struct.Struct(">Q")
 PRE_BUFFER_FRAMES = 256
 """Frames sent before the peer spoke that are kept for the log (older ones are not logged)."""
 MB = 1_000_000
+SMALL_LOG_BYTES = 16_000
+"""Logs smaller than this (a connection that said little) are deleted before larger ones, so a
+flood of short connections cannot push out the log of a real session."""
 
 
 class TlogWriter:
@@ -154,22 +159,26 @@ class TlogDirectory:
         self.enforce()
 
     def enforce(self) -> None:
-        """Delete the oldest closed logs while over the size or count limit."""
+        """Delete closed logs (small ones first, then the oldest) while over the size or count limit."""
         files: list[tuple[float, int, Path]] = []
         with contextlib.suppress(OSError):
             for p in self.path.glob("*.tlog"):
                 with contextlib.suppress(OSError):
                     st = p.stat()
                     files.append((st.st_mtime, st.st_size, p))
-        files.sort()
+        files.sort(key=lambda f: (f[1] >= SMALL_LOG_BYTES, f[0]))  # small ones first, then oldest first
         total = sum(size for _, size, _ in files)
         count = len(files)
+        big = sum(1 for _, size, _ in files if size >= SMALL_LOG_BYTES)
         limit = self.max_total_bytes()
         for _, size, path in files:
-            if total <= limit and count <= self.max_files:
+            over_size, over_count = total > limit, count > self.max_files
+            if not (over_size or over_count):
                 break
             if path in self._open:
                 continue
+            if size >= SMALL_LOG_BYTES and not over_size and big <= self.max_files:
+                continue  # too many files because of small or open ones: a real session's log stays
             try:
                 path.unlink()
             except OSError:
@@ -177,3 +186,4 @@ class TlogDirectory:
             self.deleted += 1
             total -= size
             count -= 1
+            big -= size >= SMALL_LOG_BYTES

@@ -72,6 +72,8 @@ def test_200_quick_tcp_connections_leave_no_pile_and_the_cap_holds(tmp_path: Pat
     assert all(size > 0 for size in sizes)
     assert not any("udp" in p.name for p in logs), "a link nobody answered on must leave no log"
     assert len(logs) < 200 // 3  # the 67 one-heartbeat connections did not all stay
+    assert any("-part" in p.name for p in logs), "the flood pushed out the real session's log"
+    print(f"\n200 quick TCP connections: {len(logs)} .tlog files, {sum(sizes)} bytes kept")
 
 
 def test_directory_caps_by_size_and_count_and_keeps_open_files(tmp_path: Path) -> None:
@@ -93,3 +95,19 @@ def test_directory_caps_by_size_and_count_and_keeps_open_files(tmp_path: Path) -
         w.write(time.time(), b"hb", received=True)
         w.close()
     assert len(list(tmp_path.glob("*.tlog"))) <= 5 and live.path.exists()
+
+
+def test_many_open_connections_do_not_push_out_a_real_sessions_log(tmp_path: Path) -> None:
+    d = TlogDirectory(tmp_path, max_total_bytes=lambda: 1e6, file_bytes=lambda: 1e5, max_files=5)
+    session = d.writer("session")
+    session.write(time.time(), b"s" * 100, received=True)
+    for _ in range(500):
+        session.write(time.time(), b"t" * 100)  # 50 kB: a real conversation
+    session.close()
+    flood = [d.writer(f"flood{i}") for i in range(30)]
+    for w in flood:
+        w.write(time.time(), b"hb", received=True)  # 30 connections open at once
+    for w in flood:
+        w.close()
+    names = {p.name for p in tmp_path.glob("*.tlog")}
+    assert "session.tlog" in names and len(names) <= 5
