@@ -224,6 +224,7 @@ class LinkSecurity:
         self.stream_timestamps: dict[tuple[int, int, int], int] = {}
         """Last timestamp per (link id, system, component), shared by every link: replay protection."""
         self._links: list[Any] = []
+        self._deny_answers: dict[str, Callable[[Any, Any], None]] = {}
         self._next_link_id = 0
         self._last_report_s: dict[tuple[str, int], float] = {}
 
@@ -244,6 +245,11 @@ class LinkSecurity:
                    trusted_links=list(config["security.trusted_links"]),
                    gcs_sysids=list(config["security.gcs_sysids"]), key_path=key_path, now_s=now_s,
                    announce=announce, key_is_configured=bool(configured))
+
+    def on_deny(self, msg_type: str, answer: Callable[[Any, Any], None]) -> None:
+        """How the protocol of ``msg_type`` answers a refusal (e.g. PARAM_SET: the unchanged
+        PARAM_VALUE); ``answer(link, msg)`` is called for every denied frame of that type."""
+        self._deny_answers[msg_type] = answer
 
     # -- links ------------------------------------------------------------------------------
     def attach(self, link: Any) -> None:
@@ -335,6 +341,11 @@ class LinkSecurity:
         elif name in MISSION_WRITES:
             link.send(mav.MAVLink_mission_ack_message(src[0], src[1], mav.MAV_MISSION_DENIED,
                                                       int(getattr(msg, "mission_type", 0))))
+        elif (answer := self._deny_answers.get(name)) is not None:
+            try:
+                answer(link, msg)
+            except Exception:  # a refusal must never take the link down
+                log.exception("answering a denied %s failed", name)
         log.warning("%s: %s", link.name, reason)
         self._report(("deny", src[0]), reason)
 

@@ -170,7 +170,10 @@ def test_signed_station_outside_gcs_sysids_is_denied_with_reason(vehicle: int, s
         stranger.send(stranger.mav.mission_count_encode(1, 1, len(PLAN_B), 0))
         mack = stranger.wait("MISSION_ACK", since=since)
         assert mack is not None and mack.type == mav.MAV_MISSION_DENIED
+        since = stranger.mark()
         stranger.param_set("LOIT_RADIUS", 7.0)
+        pv = stranger.wait("PARAM_VALUE", lambda m: m.param_id == "LOIT_RADIUS", since=since)
+        assert pv is not None and pv.param_value == pytest.approx(12.0)  # the unchanged value, as refused
         time.sleep(QUIET_S)
     assert_state(signed)
 
