@@ -8,6 +8,8 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from pymavlink.dialects.v20 import all as mavlink2
 
 from companion.clock import SimClock
@@ -190,3 +192,23 @@ def test_key_files(tmp_path: Path) -> None:
 def test_require_signing_without_a_key_is_a_config_error(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="require_signing"):
         Vehicle(tmp_path, key=None)
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(data=st.binary(min_size=0, max_size=300), flips=st.lists(st.integers(0, 10_000), max_size=6))
+def test_garbage_and_bit_flipped_signed_frames_never_raise_nor_act(tmp_path: Path, data: bytes,
+                                                                   flips: list[int]) -> None:
+    v = Vehicle(tmp_path)
+    good = station(KEY)
+    arm_frame = frame(good, arm(good))
+    param_frame = frame(good, good.param_set_encode(1, 1, b"LOIT_RADIUS", 7, 9))
+    signed = bytearray(arm_frame + param_frame)
+    for bit in flips:
+        signed[(bit // 8) % len(signed)] ^= 1 << (bit % 8)
+    arm_sent, param_sent = bytes(signed[:len(arm_frame)]), bytes(signed[len(arm_frame):])
+    for _ in range(2):  # the second time: replays
+        for datagram in (bytes(data), arm_sent, param_sent):  # one frame per datagram, as UDP stations
+            v.link.feed(datagram, datagram=True)
+    v.link.feed(bytes(data) + bytes(signed))  # on a byte stream (TCP, serial): garbage first
+    intact = param_sent == param_frame
+    assert v.handled.count("PARAM_SET") == (1 if intact else 0)  # a damaged frame never, a replay never
