@@ -24,8 +24,9 @@ Policy (:class:`LinkSecurity`), with ``[security] require_signing = true``:
 
 Without ``require_signing`` a key only signs the outgoing traffic and marks valid incoming
 frames as signed; unsigned stations are still obeyed.  ``[security] gcs_sysids`` (signed or
-not) limits the systems that may change state; the refusal is answered (COMMAND_ACK
-DENIED, MISSION_ACK MAV_MISSION_DENIED) with a STATUSTEXT reason.
+not) limits the systems that may change state; the refusal is answered as each protocol allows
+(COMMAND_ACK DENIED, MISSION_ACK MAV_MISSION_DENIED, the unchanged PARAM_VALUE) with a STATUSTEXT
+reason.
 
 SETUP_SIGNING is accepted on trusted links only (``[security] trusted_links``, the serial/USB
 ports by default), signed or not: physical access is the trust.  It sets the key on every link
@@ -50,12 +51,15 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pymavlink.dialects.v20 import all as _all
 
 from companion.config import ConfigError
 from companion.link.dialect import mav
+
+if TYPE_CHECKING:
+    from companion.link.endpoint import Link
 
 log = logging.getLogger(__name__)
 
@@ -223,8 +227,8 @@ class LinkSecurity:
         self.stats = SecurityStats()
         self.stream_timestamps: dict[tuple[int, int, int], int] = {}
         """Last timestamp per (link id, system, component), shared by every link: replay protection."""
-        self._links: list[Any] = []
-        self._deny_answers: dict[str, Callable[[Any, Any], None]] = {}
+        self._links: list[Link] = []
+        self._deny_answers: dict[str, Callable[[Link, Any], None]] = {}
         self._next_link_id = 0
         self._last_report_s: dict[tuple[str, int], float] = {}
 
@@ -246,13 +250,13 @@ class LinkSecurity:
                    gcs_sysids=list(config["security.gcs_sysids"]), key_path=key_path, now_s=now_s,
                    announce=announce, key_is_configured=bool(configured))
 
-    def on_deny(self, msg_type: str, answer: Callable[[Any, Any], None]) -> None:
+    def on_deny(self, msg_type: str, answer: Callable[[Link, Any], None]) -> None:
         """How the protocol of ``msg_type`` answers a refusal (e.g. PARAM_SET: the unchanged
         PARAM_VALUE); ``answer(link, msg)`` is called for every denied frame of that type."""
         self._deny_answers[msg_type] = answer
 
     # -- links ------------------------------------------------------------------------------
-    def attach(self, link: Any) -> None:
+    def attach(self, link: Link) -> None:
         """Give a new link's codec the key, its own link id and the shared stream timestamps."""
         signing = link.codec.signing
         signing.link_id = self._next_link_id
@@ -262,7 +266,7 @@ class LinkSecurity:
         self._apply_key(link.codec)
         self._links.append(link)
 
-    def detach(self, link: Any) -> None:
+    def detach(self, link: Link) -> None:
         if link in self._links:
             self._links.remove(link)
 
@@ -272,12 +276,12 @@ class LinkSecurity:
         signing.sign_outgoing = self.key is not None
         signing.timestamp = max(signing.timestamp, timestamp_now())
 
-    def is_trusted(self, link: Any) -> bool:
+    def is_trusted(self, link: Link) -> bool:
         name = str(link.name)
         return any(name == entry or name.startswith(entry + ":") for entry in self.trusted_links)
 
     # -- admission -----------------------------------------------------------------------------
-    def _allow_unsigned(self, link: Any, msg_id: int) -> bool:
+    def _allow_unsigned(self, link: Link, msg_id: int) -> bool:
         """pymavlink's ``allow_unsigned_callback``: called for an unsigned frame and for one whose
         signature or timestamp failed.  With signing required, only read-only message types
         (and commands, judged by their command id once decoded) pass; the rest is dropped."""
@@ -289,7 +293,7 @@ class LinkSecurity:
         """The frame counts as the ground station's (signed, or signing not required)."""
         return not self.require_signing or bool(msg.get_signed())
 
-    def admit(self, link: Any, msg: Any) -> Verdict:
+    def admit(self, link: Link, msg: Any) -> Verdict:
         """Decide on one decoded frame addressed to this vehicle (refusals are reported/answered)."""
         if msg.get_signed():
             self.stats.accepted_signed += 1
@@ -309,7 +313,7 @@ class LinkSecurity:
             return Verdict.DENY
         return Verdict.ACCEPT
 
-    def dropped(self, link: Any, msg_name: str, src_system: int) -> None:
+    def dropped(self, link: Link, msg_name: str, src_system: int) -> None:
         """Count a dropped frame and tell the operator (rate-limited per sending system)."""
         self.stats.dropped += 1
         self.stats.dropped_by_type[msg_name] = self.stats.dropped_by_type.get(msg_name, 0) + 1
@@ -319,7 +323,7 @@ class LinkSecurity:
             self._report(("drop", src_system),
                          f"Signing: dropped {msg_name} from sys {src_system} (unsigned, bad key or replay)")
 
-    def dropped_frame(self, link: Any, frame: bytes) -> None:
+    def dropped_frame(self, link: Link, frame: bytes) -> None:
         """A frame pymavlink refused (allow_unsigned_callback said no): name it from its header."""
         msg_name, src_system = "frame", 0
         if len(frame) >= 10 and frame[0] == 0xFD:
@@ -329,7 +333,7 @@ class LinkSecurity:
             src_system = frame[5]
         self.dropped(link, msg_name, src_system)
 
-    def _deny(self, link: Any, msg: Any, reason: str) -> None:
+    def _deny(self, link: Link, msg: Any, reason: str) -> None:
         self.stats.denied += 1
         src = (msg.get_srcSystem(), msg.get_srcComponent())
         name = msg.get_type()
@@ -358,7 +362,7 @@ class LinkSecurity:
         self.announce(text)
 
     # -- SETUP_SIGNING -------------------------------------------------------------------------
-    def setup_signing(self, link: Any, msg: Any) -> str | None:
+    def setup_signing(self, link: Link, msg: Any) -> str | None:
         """Apply SETUP_SIGNING from a trusted link; returns a refusal reason or None."""
         if not self.is_trusted(link):
             return f"SETUP_SIGNING refused: {link.name} is not a trusted link"
