@@ -14,7 +14,8 @@ Policy (:class:`LinkSecurity`), with ``[security] require_signing = true``:
   *any* link, so a replayed frame is refused on a new TCP connection too.  Other frames are
   dropped, as the spec says (no COMMAND_ACK to a sender that could not be authenticated); for a
   message the vehicle acts on, the operator gets a STATUSTEXT at most every
-  :data:`DROP_REPORT_S` per sending system (other vehicles' traffic is dropped silently).
+  :data:`DROP_REPORT_S` per sending system and message type (other vehicles' traffic is dropped
+  silently).
 * Telemetry still flows to every link, signed or not: a ground station without the key sees
   the boat (position, status, the STATUSTEXT saying why its commands are dropped) and may
   read parameters and download missions (the messages in :data:`READ_ONLY_MESSAGES` and the
@@ -71,7 +72,8 @@ TIMESTAMP_UNITS_PER_S = 100_000
 NEW_STREAM_WINDOW = 60 * TIMESTAMP_UNITS_PER_S
 """A stream never seen before is accepted if its timestamp is at most one minute behind ours."""
 DROP_REPORT_S = 10.0
-"""At most one STATUSTEXT about dropped frames per sending system in this many seconds."""
+"""At most one STATUSTEXT about dropped frames per sending system and message type in this many
+seconds (MAVProxy's repeated stream requests must not hide its dropped commands)."""
 STATE_KEY_NAME = "signing.key"
 """Where a key set by SETUP_SIGNING is kept when no signing_key_file is configured."""
 
@@ -230,7 +232,7 @@ class LinkSecurity:
         self._links: list[Link] = []
         self._deny_answers: dict[str, Callable[[Link, Any], None]] = {}
         self._next_link_id = 0
-        self._last_report_s: dict[tuple[str, int], float] = {}
+        self._last_report_s: dict[tuple[str, int, str], float] = {}
 
     @classmethod
     def from_config(cls, config: Any, *, now_s: Callable[[], float], announce: Announce) -> LinkSecurity:
@@ -320,7 +322,7 @@ class LinkSecurity:
         log.info("%s: dropped %s from system %d (unsigned, wrong key or replayed)", link.name, msg_name,
                  src_system)
         if link.dispatcher.handles(msg_name):  # not for other vehicles' traffic on a shared channel
-            self._report(("drop", src_system),
+            self._report(("drop", src_system, msg_name),
                          f"Signing: dropped {msg_name} from sys {src_system} (unsigned, bad key or replay)")
 
     def dropped_frame(self, link: Link, frame: bytes) -> None:
@@ -351,9 +353,9 @@ class LinkSecurity:
             except Exception:  # a refusal must never take the link down
                 log.exception("answering a denied %s failed", name)
         log.warning("%s: %s", link.name, reason)
-        self._report(("deny", src[0]), reason)
+        self._report(("deny", src[0], name), reason)
 
-    def _report(self, key: tuple[str, int], text: str) -> None:
+    def _report(self, key: tuple[str, int, str], text: str) -> None:
         now_s = self.now_s()
         last = self._last_report_s.get(key)
         if last is not None and now_s - last < DROP_REPORT_S:
