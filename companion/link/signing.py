@@ -302,7 +302,7 @@ class LinkSecurity:
         name = msg.get_type()
         if name == "SETUP_SIGNING":
             if not self.is_trusted(link):
-                self._deny(link, msg, f"SETUP_SIGNING refused: {link.name} is not a trusted link")
+                self._deny(link, msg, f"SETUP_SIGNING refused: untrusted link {link.name}")
                 return Verdict.DENY
             return Verdict.ACCEPT
         if not changes_state(msg):
@@ -367,13 +367,13 @@ class LinkSecurity:
     def setup_signing(self, link: Link, msg: Any) -> str | None:
         """Apply SETUP_SIGNING from a trusted link; returns a refusal reason or None."""
         if not self.is_trusted(link):
-            return f"SETUP_SIGNING refused: {link.name} is not a trusted link"
+            return f"SETUP_SIGNING refused: untrusted link {link.name}"
         key = bytes(int(b) & 0xFF for b in msg.secret_key)
         if len(key) != KEY_BYTES:
             return "SETUP_SIGNING refused: the key must be 32 bytes"
         if not any(key) and int(msg.initial_timestamp) == 0:
             if self.require_signing:
-                return "SETUP_SIGNING refused: cannot disable signing while require_signing is on"
+                return "SETUP_SIGNING: cannot disable, signing is required"
             self.key = None
             if not self.key_is_configured and self.key_path is not None:
                 self.key_path.unlink(missing_ok=True)

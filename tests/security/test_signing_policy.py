@@ -154,7 +154,7 @@ def test_setup_signing_only_on_trusted_links(tmp_path: Path) -> None:
     gcs = station(None)
     v.link.feed(setup_signing(gcs, OTHER, timestamp_now()))  # tcp: not trusted
     assert v.security.key is None and not (tmp_path / "signing.key").exists()
-    assert any("not a trusted link" in t for t in v.texts)
+    assert any("untrusted link" in t for t in v.texts)
     usb = v.new_link("serial:/dev/ttyACM0")
     usb.feed(setup_signing(gcs, OTHER, timestamp_now()))
     assert v.security.key == OTHER
@@ -168,7 +168,7 @@ def test_setup_signing_only_on_trusted_links(tmp_path: Path) -> None:
 def test_setup_signing_cannot_disable_required_signing(tmp_path: Path) -> None:
     v = Vehicle(tmp_path, name="serial:/dev/ttyUSB0")
     msg = station(None).setup_signing_encode(1, 1, [0] * 32, 0)
-    assert "require_signing" in str(v.security.setup_signing(v.link, msg))
+    assert "signing is required" in str(v.security.setup_signing(v.link, msg))
     assert v.security.key == KEY
 
 
