@@ -144,8 +144,8 @@ class LinkManager(BaseService):
         if cfg["links.tlog"]:
             params = self.ctx.params
             self.tlogs = TlogDirectory(cfg.state_dir() / "logs",
-                                       max_total_bytes=lambda: params.get("USV_TLOG_MAX_MB") * MB,
-                                       file_bytes=lambda: params.get("USV_TLOG_FILE_MB") * MB,
+                                       max_total_bytes=lambda: params.get_or("USV_TLOG_MAX_MB", 500.0) * MB,
+                                       file_bytes=lambda: params.get_or("USV_TLOG_FILE_MB", 50.0) * MB,
                                        max_files=int(cfg["links.tlog_max_files"]))
             self.tlogs.enforce()  # logs of earlier runs count too
         for target in cfg["links.udp_targets"]:
