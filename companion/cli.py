@@ -4,7 +4,8 @@ Each subcommand lives in its own module (``companion/commands/*.py`` or a packag
 ``commands`` module) exposing ``HELP``, ``add_arguments(parser)`` and ``run(args) -> int``;
 adding a subcommand is one module plus one line in :data:`COMMANDS`.  Modules are imported
 lazily so ``usv --help`` stays fast.  Expected errors (bad configuration, unreadable
-files) are printed as one line and exit non-zero; no traceback reaches the operator.
+files, a state directory held by another instance) are printed as one line and exit with
+status 2; no traceback reaches the operator.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import sys
 from collections.abc import Sequence
 
 from companion.config import ConfigError
+from companion.statelock import StateDirBusy
 
 COMMANDS: dict[str, str] = {
     "sitl": "companion.commands.sitl",
@@ -55,7 +57,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     logging.basicConfig(level=level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     try:
         return int(args._module.run(args) or 0)
-    except (ConfigError, UserError) as exc:
+    except (ConfigError, UserError, StateDirBusy) as exc:
         print(f"usv {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

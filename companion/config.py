@@ -42,6 +42,8 @@ class Setting:
     choices: tuple[str, ...] = ()
     item_check: Check | None = None
     accepted: str = ""
+    item_kind: type = str
+    """Type of the entries of a ``list`` setting (``str`` or ``int``)."""
 
     def accepted_text(self) -> str:
         if self.accepted:
@@ -69,7 +71,8 @@ class Setting:
                 raise bad
             return self.kind(value)
         if self.kind is list:
-            if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            if not isinstance(value, list) or not all(
+                    isinstance(v, self.item_kind) and not isinstance(v, bool) for v in value):
                 raise bad
             for item in value:
                 problem = self.item_check(item) if self.item_check else None
@@ -151,6 +154,29 @@ SETTINGS: tuple[Setting, ...] = (
             kind=list, item_check=check_serial, accepted="a list of 'device[:baud]'"),
     Setting("links.tlog", True, "Write a telemetry log (.tlog) of every link in state_dir/logs.",
             kind=bool),
+    Setting("links.tlog_max_files", 50,
+            "Most .tlog files kept in state_dir/logs (oldest closed ones deleted first); together with "
+            "the USV_TLOG_MAX_MB parameter this bounds the logs a connection flood can leave.",
+            kind=int, min=2, max=100_000),
+    Setting("security.signing_key_file", "",
+            "MAVLink 2 signing key: a file holding 32 bytes as 64 hex characters, readable by its owner "
+            "only (chmod 600).  Empty: the key last set by SETUP_SIGNING (state_dir/signing.key), if any.",
+            accepted="a file path or ''"),
+    Setting("security.require_signing", False,
+            "Refuse unsigned, wrongly signed and replayed frames for everything that changes the "
+            "vehicle's state (commands, parameter sets, mission writes, manual control, payload "
+            "commands); telemetry still flows to every link.  Needs a key.", kind=bool),
+    Setting("security.trusted_links", ["serial"],
+            "Links on which SETUP_SIGNING may set or change the key: a link kind ('serial', 'tcp', "
+            "'udp') or one link ('serial:/dev/ttyACM0').  Name only the USB port on a boat whose "
+            "serial ports are radios.", kind=list, accepted="a list of 'serial', 'tcp', 'udp' or 'KIND:NAME'",
+            item_check=lambda v: None if v.partition(":")[0] in ("serial", "tcp", "udp") else
+            "expected serial, tcp, udp or KIND:NAME"),
+    Setting("security.gcs_sysids", [],
+            "Ground-station system ids allowed to change the vehicle's state (empty: any); others get "
+            "MAV_RESULT_DENIED / MAV_MISSION_DENIED and a STATUSTEXT.", kind=list, item_kind=int,
+            accepted="a list of integers 1..255",
+            item_check=lambda v: None if 1 <= v <= 255 else "system ids are 1..255"),
     Setting("sensors.gnss_port", "",
             "Serial device of the GPS-INS (XW-GI5630); empty in SITL, where the simulator feeds "
             "the same parser.", accepted="a device path or ''"),

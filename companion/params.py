@@ -9,9 +9,11 @@ with a reason, and persists atomically (write to a temporary file, fsync, rename
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import tempfile
+import time
 import tomllib
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
@@ -89,8 +91,11 @@ class ParamStore:
         self._order = list(self._defs)
         self._values: dict[str, float] = {n: float(d.default) for n, d in self._defs.items()}
         self._listeners: list[Listener] = []
+        self._set_listeners: list[Listener] = []
         self.path = path
         self.load_warnings: list[str] = []
+        if path is not None:
+            remove_stale_temp_files(path)
         if path is not None and path.exists():
             self.load_warnings = self._load(path)
 
@@ -142,10 +147,18 @@ class ParamStore:
                 listener(name, new)
             if persist and self.path is not None:
                 self.save()
+        for listener in tuple(self._set_listeners):
+            listener(name, new)
         return new
 
     def add_listener(self, listener: Listener) -> None:
+        """Call ``listener(name, value)`` whenever a value changes."""
         self._listeners.append(listener)
+
+    def add_set_listener(self, listener: Listener) -> None:
+        """Call ``listener(name, value)`` after every accepted set, changed or not (a reload of the
+        launcher is written with the count it already had)."""
+        self._set_listeners.append(listener)
 
     # -- persistence ----------------------------------------------------------------------
     def save(self, path: Path | None = None) -> None:
@@ -183,6 +196,24 @@ class ParamStore:
             rng = d.range_text() if d.choices else f"{_fmt(d.min)} .. {_fmt(d.max)}"
             rows.append(f"| `{name}` | {_fmt(d.default)} | {rng} | {d.unit} | {d.description} |")
         return "\n".join(rows) + "\n"
+
+
+STALE_TEMP_S = 60.0
+"""A temporary file of :func:`atomic_write_text` older than this was left by a killed process."""
+
+
+def remove_stale_temp_files(path: Path, older_than_s: float = STALE_TEMP_S) -> int:
+    """Delete the temporary files a process killed inside :func:`atomic_write_text` left next to
+    ``path`` (only those older than ``older_than_s``, never one being written); returns how many."""
+    removed = 0
+    now = time.time()
+    with contextlib.suppress(OSError):
+        for tmp in path.parent.glob(f".{path.name}.*"):
+            with contextlib.suppress(OSError):
+                if now - tmp.stat().st_mtime > older_than_s:
+                    tmp.unlink()
+                    removed += 1
+    return removed
 
 
 def atomic_write_text(path: Path, text: str) -> None:

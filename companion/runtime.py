@@ -19,7 +19,7 @@ from companion.actuators.servo import ServoMap
 from companion.app import BaseService, Context, Service
 from companion.bus import Bus
 from companion.clock import Clock
-from companion.config import Config, parse_host_port
+from companion.config import Config, parse_host_port, parse_serial
 from companion.control.system import ControlSystem
 from companion.estimation.service import (
     EstimatorStage,
@@ -129,27 +129,44 @@ def build_companion(ctx: Context, hardware: HardwareLinks | None = None,
 
 
 class ReadyBanner(BaseService):
-    """Tells the operator where ground stations connect, once every service has started."""
+    """Tells the operator where ground stations connect, once every service has started.
+
+    Only endpoints that are really open are announced as such: a TCP port that could not be
+    bound is printed as not available, with the reason (``LinkManager.unavailable``).
+    """
 
     name = "ready-banner"
 
-    def __init__(self, ctx: Context, title: str) -> None:
+    def __init__(self, ctx: Context, title: str, links: LinkManager | None = None) -> None:
         self.ctx = ctx
         self.title = title
+        self.links = links
 
     async def start(self) -> None:
+        print(self.text(), flush=True)
+        sys.stdout.flush()
+
+    def text(self) -> str:
         cfg = self.ctx.config
         lines = [f"{self.title} ready"]
         for target in cfg["links.udp_targets"]:
             port = parse_host_port(target)[1]
             who = {14550: "QGroundControl", 14540: "MAVSDK (udpin://0.0.0.0:14540)"}.get(port, "GCS")
             lines.append(f"  MAVLink UDP -> {target}  ({who})")
-        if cfg["links.tcp_listen"]:
-            lines.append(f"  MAVLink TCP server {cfg['links.tcp_listen']}  (MAVProxy: "
-                         f"mavproxy.py --master=tcp:{cfg['links.tcp_listen']})")
+        tcp = cfg["links.tcp_listen"]
+        if tcp:
+            problem = self.links.unavailable.get(f"TCP server {tcp}") if self.links is not None else None
+            if problem is not None or (self.links is not None and self.links.tcp is None):
+                lines.append(f"  MAVLink TCP server {tcp} NOT AVAILABLE ({problem or 'not open'})")
+            else:
+                lines.append(f"  MAVLink TCP server {tcp}  (MAVProxy: mavproxy.py --master=tcp:{tcp})")
+        radios = {radio.device: radio for radio in self.links.serial} if self.links is not None else {}
         for port in cfg["links.serial"]:
-            lines.append(f"  MAVLink serial {port}")
+            radio = radios.get(parse_serial(port, 0)[0])
+            if radio is not None and not radio.is_open:
+                lines.append(f"  MAVLink serial {port} NOT OPEN (cannot open the device; retrying)")
+            else:
+                lines.append(f"  MAVLink serial {port}")
         lines.append(f"  state directory {cfg.state_dir()}")
         lines.append("  press Ctrl-C to stop")
-        print("\n".join(lines), flush=True)
-        sys.stdout.flush()
+        return "\n".join(lines)

@@ -43,10 +43,11 @@ def config_from_args(args: argparse.Namespace) -> Config:
     config = load_config(getattr(args, "config", None), all_param_defs())
     overrides: dict[str, Any] = {}
     for flag, key in (("wind", "sim.wind"), ("current", "sim.current"), ("waves", "sim.waves"),
-                      ("seed", "sim.seed"), ("speedup", "sim.speedup"), ("state_dir", "vehicle.state_dir")):
+                      ("seed", "sim.seed"), ("speedup", "sim.speedup"), ("state_dir", "vehicle.state_dir"),
+                      ("signing_key", "security.signing_key_file")):
         value = getattr(args, flag, None)
         if value is not None:
-            overrides[key] = value
+            overrides[key] = str(value) if isinstance(value, Path) else value
     if getattr(args, "realtime", False):
         overrides["sim.lockstep"] = False
         overrides.setdefault("sim.speedup", 1.0)

@@ -8,6 +8,7 @@ from companion.app import Application
 from companion.clock import WallClock
 from companion.commands.common import add_config_argument, config_from_args, run_async
 from companion.config import Config
+from companion.statelock import StateDirLock
 
 HELP = "run the companion alone against real hardware (GPS-INS and servo serial ports)"
 
@@ -19,11 +20,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 async def run_companion(config: Config) -> None:
     from companion.runtime import ReadyBanner, build_companion, build_context  # the whole stack: import late
 
-    clock = WallClock()
-    ctx = build_context(config, clock)
-    services = build_companion(ctx).in_start_order()
-    services.append(ReadyBanner(ctx, f"usv companion ({config.source})"))
-    await Application(services).run()
+    with StateDirLock(config.state_dir()):  # one instance per state directory (exit 2 otherwise)
+        clock = WallClock()
+        ctx = build_context(config, clock)
+        built = build_companion(ctx)
+        services = built.in_start_order()
+        services.append(ReadyBanner(ctx, f"usv companion ({config.source})", built.links))
+        await Application(services).run()
 
 
 def run(args: argparse.Namespace) -> int:

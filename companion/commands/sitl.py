@@ -9,6 +9,7 @@ from companion.app import Application
 from companion.clock import SimClock
 from companion.commands.common import add_config_argument, add_sim_arguments, config_from_args, run_async
 from companion.config import Config
+from companion.statelock import StateDirLock
 
 HELP = "run the simulated boat together with the companion (software in the loop)"
 
@@ -16,6 +17,9 @@ HELP = "run the simulated boat together with the companion (software in the loop
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_config_argument(parser)
     add_sim_arguments(parser)
+    parser.add_argument("--signing-key", type=Path, default=None, metavar="FILE",
+                        help="MAVLink 2 signing key file (64 hex characters, chmod 600); sets "
+                             "[security] signing_key_file")
     parser.add_argument("--duration", type=float, default=None,
                         help="stop after this many seconds of simulated time")
     parser.add_argument("--truth-log", type=Path, default=None, metavar="FILE.csv",
@@ -24,18 +28,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 async def run_sitl(config: Config, duration_s: float | None = None, truth_log: Path | None = None) -> None:
+    with StateDirLock(config.state_dir()):  # one instance per state directory (exit 2 otherwise)
+        await _run_sitl(config, duration_s, truth_log)
+
+
+async def _run_sitl(config: Config, duration_s: float | None, truth_log: Path | None) -> None:
     from companion.runtime import ReadyBanner, build_companion, build_context  # the whole stack: import late
     from sim_bridge.runtime import SimulatorService
 
     clock = SimClock()
     ctx = build_context(config, clock)
     sim = SimulatorService(ctx, clock)  # the simulated boat, in-memory pipes to the companion
-    app = Application([sim, *build_companion(ctx, sim.companion_links).in_start_order()])
+    services = build_companion(ctx, sim.companion_links)
+    app = Application([sim, *services.in_start_order()])
     if truth_log is not None:
         from sim_bridge.truthlog import TruthLog
 
         app.add(TruthLog(sim.boat, clock, truth_log))
-    app.add(ReadyBanner(ctx, "usv sitl: simulated boat + companion"))
+    app.add(ReadyBanner(ctx, "usv sitl: simulated boat + companion", services.links))
     if duration_s is not None:
         from sim_bridge.runtime import StopAfter
 

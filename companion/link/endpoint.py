@@ -2,7 +2,8 @@
 
 A :class:`Link` does not know its transport: the transport gives it a ``write(bytes)``
 function and feeds it received bytes with :meth:`Link.feed`.  Decoded messages addressed to
-this vehicle (target system 0 or ours, target component 0 or ours) go to the
+this vehicle (target system 0 or ours, target component 0 or ours) and admitted by the link's
+:class:`~companion.link.signing.LinkSecurity` (signing, allowed ground stations) go to the
 :class:`Dispatcher`, which calls the handlers registered for the message type.  Nothing a
 peer sends can raise out of :meth:`Link.feed`.
 """
@@ -16,8 +17,9 @@ from collections.abc import Callable
 from typing import Any
 
 from companion.clock import Clock, WallClock
-from companion.link.dialect import mav, new_codec
+from companion.link.dialect import mav
 from companion.link.gcs_presence import GcsPresence
+from companion.link.signing import LinkSecurity, Verdict, new_link_codec
 from companion.link.streams import StreamRates
 from companion.link.tlog import TlogWriter
 
@@ -27,6 +29,8 @@ MAV_TYPE_GCS = mav.MAV_TYPE_GCS
 _MIN_FRAME = 8  # pymavlink's HEADER_LEN_V1 + 2: what the parser expects before it has a header
 
 Handler = Callable[["Link", Any], None]
+SIGNATURE_REFUSED = "Invalid signature"
+"""pymavlink's reason for a frame its ``allow_unsigned_callback`` refused."""
 
 
 class Dispatcher:
@@ -44,6 +48,10 @@ class Dispatcher:
         else:
             self._handlers[msg_type].append(handler)
 
+    def handles(self, msg_type: str) -> bool:
+        """Some handler acts on ``msg_type`` (not counting the catch-all ones)."""
+        return bool(self._handlers.get(msg_type))
+
     def dispatch(self, link: Link, msg: Any) -> None:
         for handler in (*self._any, *self._handlers.get(msg.get_type(), ())):
             try:
@@ -58,14 +66,18 @@ class Link:
 
     def __init__(self, name: str, write: Callable[[bytes], None], *, clock: Clock, dispatcher: Dispatcher,
                  system_id: int = 1, component_id: int = 1, tlog: TlogWriter | None = None,
-                 rates: StreamRates | None = None, wall: Clock | None = None) -> None:
+                 rates: StreamRates | None = None, wall: Clock | None = None,
+                 security: LinkSecurity | None = None) -> None:
         self.name = name
         self._write = write
         self.clock = clock
         self.dispatcher = dispatcher
         self.system_id = system_id
         self.component_id = component_id
-        self.codec = new_codec(system_id, component_id)
+        self.codec = new_link_codec(system_id, component_id)
+        self.security = security
+        self.rx_dropped = 0
+        """Frames refused by the signing policy (unsigned, wrong key, replayed)."""
         self.tlog = tlog
         self.rates = rates if rates is not None else StreamRates()
         self.closed = False
@@ -76,6 +88,8 @@ class Link:
         self.gcs = GcsPresence(clock, wall if wall is not None else WallClock())
         """The ground station's heartbeats on this link (GCS failsafe, :mod:`.gcs_presence`)."""
         self.peer: tuple[int, int] | None = None
+        if security is not None:
+            security.attach(self)
 
     # -- sending -------------------------------------------------------------------------
     def send(self, msg: Any) -> None:
@@ -127,7 +141,7 @@ class Link:
             self.rx_frames += 1
             if self.tlog is not None:
                 with contextlib.suppress(Exception):
-                    self.tlog.write(self.clock_unix_s(), bytes(msg.get_msgbuf()))
+                    self.tlog.write(self.clock_unix_s(), bytes(msg.get_msgbuf()), received=True)
             self._receive(msg)
 
     def _reset_parser(self) -> None:
@@ -142,7 +156,11 @@ class Link:
         out: list[Any] = []
         msg = codec.parse_char(data)
         while msg is not None:
-            if msg.get_type() == "BAD_DATA":
+            if msg.get_type() == "BAD_DATA" and msg.reason == SIGNATURE_REFUSED:
+                self.rx_dropped += 1  # a whole, well-formed frame the signing policy refused
+                if self.security is not None:
+                    self.security.dropped_frame(self, bytes(msg.data))
+            elif msg.get_type() == "BAD_DATA":
                 self.rx_errors += 1
                 bad = bytes(msg.data)
                 if len(bad) > 1 and msg.reason != "Bad prefix":
@@ -157,10 +175,12 @@ class Link:
     def _receive(self, msg: Any) -> None:
         now_s = self.clock.now_s()
         self.last_rx_s = now_s
-        if msg.get_type() == "HEARTBEAT" and getattr(msg, "type", None) == MAV_TYPE_GCS:
+        # With signing required only signed frames show the ground station is there (GCS failsafe).
+        authentic = self.security is None or self.security.authentic(msg)
+        if msg.get_type() == "HEARTBEAT" and getattr(msg, "type", None) == MAV_TYPE_GCS and authentic:
             self.gcs.heard(heartbeat=True)
             self.peer = (msg.get_srcSystem(), msg.get_srcComponent())
-        elif self.peer is not None and self.peer == (msg.get_srcSystem(), msg.get_srcComponent()):
+        elif authentic and self.peer == (msg.get_srcSystem(), msg.get_srcComponent()):
             self.gcs.heard(heartbeat=False)  # a command or request from the ground station: it is there
         target_system = getattr(msg, "target_system", 0)
         if target_system not in (0, self.system_id):
@@ -168,10 +188,18 @@ class Link:
         target_component = getattr(msg, "target_component", 0)
         if target_component not in (0, self.component_id):
             return
+        if self.security is not None:
+            verdict = self.security.admit(self, msg)
+            if verdict is Verdict.DROP:
+                self.rx_dropped += 1
+            if verdict is not Verdict.ACCEPT:
+                return
         self.dispatcher.dispatch(self, msg)
 
     def close(self) -> None:
         self.closed = True
+        if self.security is not None:
+            self.security.detach(self)
         if self.tlog is not None:
             self.tlog.close()
 

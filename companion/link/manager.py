@@ -2,7 +2,8 @@
 
 Configuration (``[links]``): ``udp_targets`` (QGroundControl 14550, MAVSDK 14540 by default),
 ``tcp_listen`` (5760), ``serial`` (radios) and ``tlog`` (one .tlog per link in
-``<state_dir>/logs``).  The byte transports are :mod:`companion.transport`'s: a
+``<state_dir>/logs``, rotated and capped by :class:`~companion.link.tlog.TlogDirectory`).
+The byte transports are :mod:`companion.transport`'s: a
 :class:`~companion.transport.UdpLink` per target (sending to it from an ephemeral port and
 accepting replies from anyone), a :class:`~companion.transport.TcpServer` whose every client
 is a link of its own (removed when the client leaves), and a
@@ -23,7 +24,6 @@ import logging
 import re
 import time
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 from companion.app import BaseService, Context
@@ -32,7 +32,9 @@ from companion.config import parse_host_port, parse_serial
 from companion.link import streams
 from companion.link.endpoint import Dispatcher, Link
 from companion.link.gcs_presence import Silence
-from companion.link.tlog import TlogWriter
+from companion.link.signing import LinkSecurity
+from companion.link.tlog import MB, TlogDirectory
+from companion.messages import STATUS_TEXT_TOPIC, Severity, StatusText
 from companion.transport import ByteLink, SerialLink, TcpServer, UdpLink
 
 log = logging.getLogger(__name__)
@@ -60,6 +62,9 @@ class LinkManager(BaseService):
         self.system_id = int(system_id if system_id is not None else ctx.params.get("SYSID_THISMAV"))
         self.component_id = component_id
         self.dispatcher = Dispatcher()
+        self.security = LinkSecurity.from_config(ctx.config, now_s=ctx.clock.now_s, announce=self._announce)
+        """MAVLink signing and the ground stations allowed to change state (``[security]``)."""
+        self.dispatcher.on("SETUP_SIGNING", self._on_setup_signing)
         self.links: list[Link] = []
         self.udp: list[UdpLink] = []
         self.tcp: TcpServer | None = None
@@ -67,17 +72,20 @@ class LinkManager(BaseService):
         self._link_of: dict[ByteLink, Link] = {}
         self.wall = WallClock()
         """The wall clock next to ``ctx.clock``: ground stations pace their heartbeats by it."""
-        self._tlog_dir: Path | None = None
+        self.tlogs: TlogDirectory | None = None
+        """The bounded .tlog directory (``None``: links.tlog is off)."""
+        self.unavailable: dict[str, str] = {}
+        """Configured endpoints that could not be opened -> why (the ready banner says so)."""
         self._session = time.strftime("%Y%m%d-%H%M%S", time.gmtime(ctx.clock.unix_time_s()))
 
     # -- links ----------------------------------------------------------------------------
     def make_link(self, name: str, write: Callable[[bytes], None]) -> Link:
         tlog = None
-        if self._tlog_dir is not None:
+        if self.tlogs is not None:
             safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
-            tlog = TlogWriter(self._tlog_dir / f"{self._session}-{safe}.tlog")
+            tlog = self.tlogs.writer(f"{self._session}-{safe}")
         link = Link(name, write, clock=self.ctx.clock, dispatcher=self.dispatcher, system_id=self.system_id,
-                    component_id=self.component_id, tlog=tlog, wall=self.wall,
+                    component_id=self.component_id, tlog=tlog, wall=self.wall, security=self.security,
                     rates=streams.StreamRates(self.stream_rates_hz, self.stream_groups))
         self.links.append(link)
         return link
@@ -97,6 +105,18 @@ class LinkManager(BaseService):
         if link is not None:
             self.drop_link(link)
             link.close()
+
+    def _announce(self, text: str, severity: Severity = Severity.WARNING) -> None:
+        self.ctx.bus.topic(STATUS_TEXT_TOPIC).publish(StatusText(self.ctx.clock.now_s(), severity, text))
+
+    def _on_setup_signing(self, link: Link, msg: Any) -> None:
+        """SETUP_SIGNING (a message without an ACK): the outcome is told by STATUSTEXT."""
+        refusal = self.security.setup_signing(link, msg)
+        if refusal is not None:
+            self._announce(refusal)
+        else:
+            state = "set" if self.security.key is not None else "disabled"
+            self._announce(f"Signing key {state} by SETUP_SIGNING on {link.name}", Severity.NOTICE)
 
     def broadcast(self, msg: Any) -> None:
         """Send one message on every link (each with its own sequence number)."""
@@ -122,7 +142,12 @@ class LinkManager(BaseService):
     async def start(self) -> None:
         cfg = self.ctx.config
         if cfg["links.tlog"]:
-            self._tlog_dir = cfg.state_dir() / "logs"
+            params = self.ctx.params
+            self.tlogs = TlogDirectory(cfg.state_dir() / "logs",
+                                       max_total_bytes=lambda: params.get_or("USV_TLOG_MAX_MB", 500.0) * MB,
+                                       file_bytes=lambda: params.get_or("USV_TLOG_FILE_MB", 50.0) * MB,
+                                       max_files=int(cfg["links.tlog_max_files"]))
+            self.tlogs.enforce()  # logs of earlier runs count too
         for target in cfg["links.udp_targets"]:
             host, port = parse_host_port(target)
             udp = UdpLink(None, (host, port))
@@ -136,7 +161,9 @@ class LinkManager(BaseService):
             try:
                 await self.tcp.open()
             except OSError as exc:
-                log.error("TCP server %s not started: %s", cfg["links.tcp_listen"], exc)
+                reason = exc.strerror or str(exc)
+                log.error("TCP server %s not started: cannot bind (%s)", cfg["links.tcp_listen"], reason)
+                self.unavailable[f"TCP server {cfg['links.tcp_listen']}"] = f"cannot bind: {reason}"
                 self.tcp = None
         for spec in cfg["links.serial"]:
             device, baud = parse_serial(spec, SERIAL_DEFAULT_BAUD)
@@ -152,6 +179,8 @@ class LinkManager(BaseService):
             for link in tuple(self.links):
                 if link.tlog is not None:
                     link.tlog.flush()
+            if self.tlogs is not None:
+                self.tlogs.enforce()
 
     async def stop(self) -> None:
         for udp in self.udp:

@@ -76,6 +76,7 @@ class ParamService:
         links.dispatcher.on("PARAM_REQUEST_LIST", self._on_list)
         links.dispatcher.on("PARAM_REQUEST_READ", self._on_read)
         links.dispatcher.on("PARAM_SET", self._on_set)
+        links.security.on_deny("PARAM_SET", self._on_denied_set)
 
     def value_msg(self, name: str) -> Any:
         params = self.ctx.params
@@ -108,6 +109,12 @@ class ParamService:
             link.send(self.value_msg(params.definition(name).name))
         except ParamError as exc:
             log.debug("PARAM_REQUEST_READ from %s: %s", link.name, exc)
+
+    def _on_denied_set(self, link: Link, msg: Any) -> None:
+        """A PARAM_SET the security policy refused: answer with the unchanged value, as for a bad one."""
+        name = _name(msg)
+        if name in self.ctx.params:
+            link.send(self.value_msg(self.ctx.params.definition(name).name))
 
     def _on_set(self, link: Link, msg: Any) -> None:
         name = _name(msg)

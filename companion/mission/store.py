@@ -18,7 +18,7 @@ from pathlib import Path
 
 from companion.mission.convention import Convention, classify
 from companion.mission.items import MissionItem, MissionType
-from companion.params import atomic_write_text
+from companion.params import atomic_write_text, remove_stale_temp_files
 
 log = logging.getLogger(__name__)
 
@@ -97,7 +97,10 @@ class MissionStore:
 
     def _load(self, mtype: MissionType) -> None:
         path = self._path(mtype)
-        if path is None or not path.exists():
+        if path is None:
+            return
+        remove_stale_temp_files(path)
+        if not path.exists():
             return
         try:
             data = json.loads(path.read_text(encoding="utf-8"))

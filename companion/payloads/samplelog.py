@@ -10,7 +10,8 @@ A sample is written twice: a ``filling`` row when the pump starts and the final 
 (``complete``, ``failed`` or ``aborted``) when it stops.  A ``filling`` row found when the
 log is opened belongs to a sample cut short by a crash and is marked ``interrupted``.
 Bottle states are kept in their own table so a restarted companion knows which bottles
-are full.
+are full, and the rope launcher's shot counter in the ``launcher`` table, written in the same
+transaction as the launch it follows, so a restart neither forgets a shot nor counts one twice.
 """
 
 from __future__ import annotations
@@ -53,6 +54,10 @@ CREATE TABLE IF NOT EXISTS launches (
     heading_deg REAL,
     pressure_mpa REAL,
     mission_seq INTEGER
+);
+CREATE TABLE IF NOT EXISTS launcher (
+    id INTEGER PRIMARY KEY CHECK (id = 1),
+    shots_left INTEGER NOT NULL
 );
 """
 
@@ -230,14 +235,35 @@ class SampleLog:
         heading_deg: float | None,
         pressure_mpa: float | None,
         mission_seq: int | None,
+        shots_left: int | None = None,
     ) -> int:
+        """Record a launch and (``shots_left``) the launcher's new shot count, atomically."""
         with self._tx():
             cur = self._db.execute(
                 "INSERT INTO launches(t_unix_s, lat_deg, lon_deg, heading_deg, pressure_mpa, mission_seq)"
                 " VALUES (?, ?, ?, ?, ?, ?)",
                 (t_unix_s, _num(lat_deg), _num(lon_deg), _num(heading_deg), _num(pressure_mpa), mission_seq),
             )
+            if shots_left is not None:
+                self._put_shots_left(shots_left)
             return int(cur.lastrowid or 0)
+
+    def _put_shots_left(self, shots_left: int) -> None:
+        self._db.execute("INSERT INTO launcher(id, shots_left) VALUES (1, ?) "
+                         "ON CONFLICT(id) DO UPDATE SET shots_left=excluded.shots_left", (int(shots_left),))
+
+    def set_shots_left(self, shots_left: int) -> None:
+        """Record the launcher's shot count (after a reload)."""
+        with self._tx():
+            self._put_shots_left(shots_left)
+
+    def shots_left(self) -> int | None:
+        """The launcher's shot count as last recorded (``None``: never recorded)."""
+        try:
+            row = self._db.execute("SELECT shots_left FROM launcher WHERE id=1").fetchone()
+        except sqlite3.OperationalError:  # a read-only log written before the table existed
+            return None
+        return None if row is None else int(row[0])
 
     def launches(self) -> list[LaunchRecord]:
         rows = self._db.execute(

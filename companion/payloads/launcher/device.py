@@ -23,6 +23,7 @@ from __future__ import annotations
 import enum
 import logging
 import math
+import sqlite3
 
 from companion.app import Context
 from companion.messages import (
@@ -74,9 +75,13 @@ class RopeLauncher:
         self.shots_left = ctx.params.get_int("USV_LNCH_SHOTS")
         self.last_launch: LaunchRecord | None = None
         self._safe_us: int | None = None
-        if samplelog is not None and (launches := samplelog.launches()):
-            self.last_launch = launches[-1]
+        if samplelog is not None:
+            if (launches := samplelog.launches()):
+                self.last_launch = launches[-1]
+            if (saved := samplelog.shots_left()) is not None:
+                self.shots_left = saved  # the counter survives a restart (a reload is a USV_LNCH_SHOTS set)
         ctx.params.add_listener(self._on_param)
+        ctx.params.add_set_listener(self._on_param_set)
         ctx.bus.topic(VEHICLE_STATUS_TOPIC).add_listener(self._on_vehicle_status)
         ctx.bus.topic(RC_IN_TOPIC).add_listener(self._on_rc)
         outputs.set(launcher_trigger=False, trigger_pulse_us=ctx.params.get_int("USV_LNCH_SAFE_US"))
@@ -85,8 +90,16 @@ class RopeLauncher:
     def _on_param(self, name: str, value: float) -> None:
         if name == "USV_LNCH_SAFE_US":
             self._safe_us = None
+
+    def _on_param_set(self, name: str, value: float) -> None:
+        """Every accepted USV_LNCH_SHOTS set is a reload, even with the value it already had."""
         if name == "USV_LNCH_SHOTS":
             self.shots_left = int(value)
+            if self.samplelog is not None:
+                try:
+                    self.samplelog.set_shots_left(self.shots_left)
+                except sqlite3.Error as exc:
+                    log.warning("launcher shot count not saved: %s", exc)
             log.info("launcher reloaded: %d shot(s)", self.shots_left)
 
     def _on_vehicle_status(self, status: VehicleStatus) -> None:
@@ -217,7 +230,7 @@ class RopeLauncher:
         finally:
             self.outputs.set(launcher_trigger=False, trigger_pulse_us=params.get_int("USV_LNCH_SAFE_US"))
             self.firing = False
-        self.shots_left = max(0, self.shots_left - 1)
+        self.shots_left = shots_left = max(0, self.shots_left - 1)
         heading_deg = math.degrees(nav.heading_rad) % 360.0 if nav is not None else None
         lat = nav.lat_deg if nav is not None else None
         lon = nav.lon_deg if nav is not None else None
@@ -230,6 +243,7 @@ class RopeLauncher:
                 heading_deg=heading_deg,
                 pressure_mpa=pressure,
                 mission_seq=mission_seq,
+                shots_left=shots_left,
             )
         self.last_launch = LaunchRecord(launch_id, t_unix_s, lat, lon, heading_deg, pressure, mission_seq)
         log.info("launch: %s", self.last_launch)
