@@ -7,8 +7,15 @@ from pathlib import Path
 
 from companion.app import Application
 from companion.clock import SimClock
-from companion.commands.common import add_config_argument, add_sim_arguments, config_from_args, run_async
-from companion.config import Config
+from companion.commands.common import (
+    add_config_argument,
+    add_mqtt_argument,
+    add_sim_arguments,
+    config_from_args,
+    run_async,
+)
+from companion.config import Config, ConfigError
+from companion.mqtt.broker import DEFAULT_EMBEDDED_PORT, EmbeddedBroker
 from companion.statelock import StateDirLock
 
 HELP = "run the simulated boat together with the companion (software in the loop)"
@@ -20,6 +27,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--signing-key", type=Path, default=None, metavar="FILE",
                         help="MAVLink 2 signing key file (64 hex characters, chmod 600); sets "
                              "[security] signing_key_file")
+    add_mqtt_argument(parser)
+    parser.add_argument("--mqtt-embedded", type=int, nargs="?", const=DEFAULT_EMBEDDED_PORT, default=None,
+                        metavar="PORT",
+                        help="start an MQTT broker (amqtt) on 127.0.0.1:PORT (default "
+                             f"{DEFAULT_EMBEDDED_PORT}) and publish to it, unless --mqtt names another one")
     parser.add_argument("--duration", type=float, default=None,
                         help="stop after this many seconds of simulated time")
     parser.add_argument("--truth-log", type=Path, default=None, metavar="FILE.csv",
@@ -27,12 +39,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "(for benchmarks; see sim_bridge/truthlog.py)")
 
 
-async def run_sitl(config: Config, duration_s: float | None = None, truth_log: Path | None = None) -> None:
+async def run_sitl(config: Config, duration_s: float | None = None, truth_log: Path | None = None,
+                   broker: EmbeddedBroker | None = None) -> None:
     with StateDirLock(config.state_dir()):  # one instance per state directory (exit 2 otherwise)
-        await _run_sitl(config, duration_s, truth_log)
+        await _run_sitl(config, duration_s, truth_log, broker)
 
 
-async def _run_sitl(config: Config, duration_s: float | None, truth_log: Path | None) -> None:
+async def _run_sitl(config: Config, duration_s: float | None, truth_log: Path | None,
+                    broker: EmbeddedBroker | None) -> None:
     from companion.runtime import ReadyBanner, build_companion, build_context  # the whole stack: import late
     from sim_bridge.runtime import SimulatorService
 
@@ -40,7 +54,7 @@ async def _run_sitl(config: Config, duration_s: float | None, truth_log: Path | 
     ctx = build_context(config, clock)
     sim = SimulatorService(ctx, clock)  # the simulated boat, in-memory pipes to the companion
     services = build_companion(ctx, sim.companion_links)
-    app = Application([sim, *services.in_start_order()])
+    app = Application([*([broker] if broker is not None else []), sim, *services.in_start_order()])
     if truth_log is not None:
         from sim_bridge.truthlog import TruthLog
 
@@ -55,4 +69,11 @@ async def _run_sitl(config: Config, duration_s: float | None, truth_log: Path | 
 
 def run(args: argparse.Namespace) -> int:
     config = config_from_args(args)
-    return run_async(run_sitl(config, args.duration, args.truth_log))
+    broker = None
+    if args.mqtt_embedded is not None:
+        if not 1 <= args.mqtt_embedded <= 65535:
+            raise ConfigError(f"--mqtt-embedded: invalid port {args.mqtt_embedded}; accepted: 1..65535")
+        broker = EmbeddedBroker(args.mqtt_embedded)
+        if not config["mqtt.url"]:
+            config = config.with_overrides({"mqtt.url": broker.url})
+    return run_async(run_sitl(config, args.duration, args.truth_log, broker))
