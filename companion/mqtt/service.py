@@ -153,17 +153,21 @@ class MqttService(BaseService):
                     wait_s = FIRST_RETRY_S
                     log.info("MQTT connected to %s as usv/%s", self.settings.url, self.settings.vehicle_id)
                     await self._connected(client)
-            except aiomqtt.MqttError as exc:
-                if self.connected:
-                    log.warning("MQTT connection to %s lost (%s); reconnecting", self.settings.url, exc)
-                else:
-                    self.stats.connect_failures += 1
-                    log.info("MQTT broker %s not reachable (%s); next try in %.0f s", self.settings.url, exc,
-                             wait_s)
+            except* aiomqtt.MqttError as group:
+                self._lost(group.exceptions[0], wait_s)
+            except* Exception:  # MQTT must never take the boat down: log, and connect again
+                log.exception("MQTT service error; reconnecting")
             finally:
                 self.connected = False
             await asyncio.sleep(wait_s)
             wait_s = min(2.0 * wait_s, self.settings.reconnect_max_s)
+
+    def _lost(self, exc: BaseException, wait_s: float) -> None:
+        if self.connected:
+            log.warning("MQTT connection to %s lost (%s); reconnecting", self.settings.url, exc)
+        else:
+            self.stats.connect_failures += 1
+            log.info("MQTT broker %s not reachable (%s); next try in %.0f s", self.settings.url, exc, wait_s)
 
     async def _connected(self, client: MqttClient) -> None:
         vid = self.settings.vehicle_id
