@@ -6,6 +6,7 @@ The real broker, the real ``usv sitl`` process and a real subscriber are in
 from __future__ import annotations
 
 import asyncio
+import itertools
 import json
 from pathlib import Path
 from typing import Any
@@ -117,7 +118,7 @@ async def test_state_topics_follow_their_rate_parameters_on_the_simulated_clock(
     positions = _topics(world, "usv/usv1/position")
     times = [p[1]["t_s"] for p in positions]
     assert len(positions) == 20 or len(positions) == 21  # 2 Hz for 10 simulated seconds
-    assert all(abs((b - a) - 0.5) < 0.02 for a, b in zip(times, times[1:], strict=False))
+    assert all(abs((b - a) - 0.5) < 0.02 for a, b in itertools.pairwise(times))
     assert 5 <= len(_topics(world, "usv/usv1/sampler")) <= 6  # 0.5 Hz
     assert not _topics(world, "usv/usv1/engine")
     assert all(p[2] == 0 and p[3] for p in positions)  # QoS 0, retained
@@ -148,8 +149,9 @@ async def test_records_wait_in_the_outbox_while_the_broker_is_away_then_go_once(
     svc, clock, log = _service(tmp_path, world)
     world["fail_connects"] = 3
     _sample(log, 1)
-    svc.ctx.bus.topic(STATUS_TEXT_TOPIC).publish(StatusText(0.0, Severity.CRITICAL, "GCS failsafe: no heartbeat"))
-    svc.ctx.bus.topic(STATUS_TEXT_TOPIC).publish(StatusText(0.0, Severity.INFO, "Armed"))  # not an event
+    texts = svc.ctx.bus.topic(STATUS_TEXT_TOPIC)
+    texts.publish(StatusText(0.0, Severity.CRITICAL, "GCS failsafe: no heartbeat"))
+    texts.publish(StatusText(0.0, Severity.INFO, "Armed"))  # not an event
     task = asyncio.create_task(svc.run())
     for _ in range(300):
         await _advance(clock, 0.2)

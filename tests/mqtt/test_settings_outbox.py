@@ -34,7 +34,7 @@ def test_urls(url: str, expected: tuple[str, int, bool]) -> None:
 
 @pytest.mark.parametrize("url", ["http://x:1883", "mqtt://", "mqtt://h:0", "mqtt://u:p@h:1883", "h:1883"])
 def test_bad_url_is_a_config_error_naming_the_key(url: str) -> None:
-    with pytest.raises(ConfigError, match="mqtt.url"):
+    with pytest.raises(ConfigError, match=r"mqtt\.url"):
         default_config().with_overrides({"mqtt.url": url})
 
 
@@ -50,20 +50,22 @@ def test_settings_vehicle_id_and_credentials(tmp_path: Path) -> None:
 
 def test_a_password_file_others_can_read_is_refused(tmp_path: Path) -> None:
     config = default_config().with_overrides({
-        "mqtt.url": "mqtt://h", "mqtt.username": "boat", "mqtt.password_file": _secret(tmp_path, "pw", "x", 0o644)})
+        "mqtt.url": "mqtt://h", "mqtt.username": "boat",
+        "mqtt.password_file": _secret(tmp_path, "pw", "x", 0o644)})
     with pytest.raises(ConfigError, match="chmod 600"):
         mqtt_settings(config, 1)
 
 
 def test_commands_need_a_token_and_an_authenticated_broker(tmp_path: Path) -> None:
     base = default_config().with_overrides({"mqtt.url": "mqtt://h", "mqtt.commands": True})
-    with pytest.raises(ConfigError, match="command_token_file"):
+    with pytest.raises(ConfigError, match=r"command_token_file"):
         mqtt_settings(base, 1)
     token = _secret(tmp_path, "token", "0123456789abcdef0123")
     with pytest.raises(ConfigError, match="authenticated broker"):
         mqtt_settings(base.with_overrides({"mqtt.command_token_file": token}), 1)
     short = _secret(tmp_path, "short", "abc")
-    authed = base.with_overrides({"mqtt.username": "boat", "mqtt.password_file": _secret(tmp_path, "pw", "pw")})
+    authed = base.with_overrides({"mqtt.username": "boat",
+                                  "mqtt.password_file": _secret(tmp_path, "pw", "pw")})
     with pytest.raises(ConfigError, match="at least 16"):
         mqtt_settings(authed.with_overrides({"mqtt.command_token_file": short}), 1)
     settings = mqtt_settings(authed.with_overrides({"mqtt.command_token_file": token,
