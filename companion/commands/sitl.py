@@ -42,11 +42,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 async def run_sitl(config: Config, duration_s: float | None = None, truth_log: Path | None = None,
                    broker: EmbeddedBroker | None = None) -> None:
     with StateDirLock(config.state_dir()):  # one instance per state directory (exit 2 otherwise)
-        await _run_sitl(config, duration_s, truth_log, broker)
+        if broker is not None:
+            await broker.start()  # before the companion: a port in use is a one-line error (exit 2)
+        try:
+            await _run_sitl(config, duration_s, truth_log)
+        finally:
+            if broker is not None:
+                await broker.stop()
 
 
-async def _run_sitl(config: Config, duration_s: float | None, truth_log: Path | None,
-                    broker: EmbeddedBroker | None) -> None:
+async def _run_sitl(config: Config, duration_s: float | None, truth_log: Path | None) -> None:
     from companion.runtime import ReadyBanner, build_companion, build_context  # the whole stack: import late
     from sim_bridge.runtime import SimulatorService
 
@@ -54,7 +59,7 @@ async def _run_sitl(config: Config, duration_s: float | None, truth_log: Path | 
     ctx = build_context(config, clock)
     sim = SimulatorService(ctx, clock)  # the simulated boat, in-memory pipes to the companion
     services = build_companion(ctx, sim.companion_links)
-    app = Application([*([broker] if broker is not None else []), sim, *services.in_start_order()])
+    app = Application([sim, *services.in_start_order()])
     if truth_log is not None:
         from sim_bridge.truthlog import TruthLog
 

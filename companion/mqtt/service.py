@@ -68,6 +68,17 @@ MAX_QUEUED_OUTGOING = 64
 FIRST_RETRY_S = 1.0
 
 
+def _raise_if_cancelled() -> None:
+    """Raise CancelledError if this task is being cancelled.
+
+    Python 3.11's ``asyncio.wait_for`` (which aiomqtt uses to wait for a publication) can swallow
+    a cancellation that arrives as the awaited operation completes; every loop here checks, so
+    stopping the companion never hangs on the MQTT service."""
+    task = asyncio.current_task()
+    if task is not None and task.cancelling():
+        raise asyncio.CancelledError
+
+
 class MqttClient(Protocol):
     """What the service uses of :class:`aiomqtt.Client` (a fake in unit tests)."""
 
@@ -146,33 +157,51 @@ class MqttService(BaseService):
     async def run(self) -> None:
         wait_s = FIRST_RETRY_S
         while True:
+            # one connection in a task of its own: this task then hosts no TaskGroup, so its
+            # cancelling() count is exact (Python 3.11's TaskGroup can leave its parent's count
+            # raised after a child failed) and tells a stop from a lost connection
+            session = asyncio.create_task(self._session(), name="mqtt-session")
             try:
-                async with self.client_factory(self.settings) as client:
-                    self.connected = True
-                    self.stats.connects += 1
-                    wait_s = FIRST_RETRY_S
-                    log.info("MQTT connected to %s as usv/%s", self.settings.url, self.settings.vehicle_id)
-                    await self._connected(client)
-            except* aiomqtt.MqttError as group:
-                self._lost(group.exceptions[0], wait_s)
-            except* Exception:  # MQTT must never take the boat down: log, and connect again
-                log.exception("MQTT service error; reconnecting")
+                connected = await session
             finally:
-                self.connected = False
+                if not session.done():
+                    session.cancel()
+                    await asyncio.gather(session, return_exceptions=True)
+            _raise_if_cancelled()  # a stop that the closing client turned into an MqttError
+            if connected:
+                wait_s = FIRST_RETRY_S
             await asyncio.sleep(wait_s)
             wait_s = min(2.0 * wait_s, self.settings.reconnect_max_s)
 
-    def _lost(self, exc: BaseException, wait_s: float) -> None:
-        if self.connected:
+    async def _session(self) -> bool:
+        """Connect, publish until the connection ends; whether it connected at all."""
+        connected = False
+        try:
+            async with self.client_factory(self.settings) as client:
+                self.connected = connected = True
+                self.stats.connects += 1
+                log.info("MQTT connected to %s as usv/%s", self.settings.url, self.settings.vehicle_id)
+                await self._connected(client)
+        except* aiomqtt.MqttError as group:
+            self._lost(group.exceptions[0], connected)
+        except* Exception:  # MQTT must never take the boat down: log, and connect again
+            log.exception("MQTT service error; reconnecting")
+        finally:
+            self.connected = False
+        return connected
+
+    def _lost(self, exc: BaseException, was_connected: bool) -> None:
+        if was_connected:
             log.warning("MQTT connection to %s lost (%s); reconnecting", self.settings.url, exc)
         else:
             self.stats.connect_failures += 1
-            log.info("MQTT broker %s not reachable (%s); next try in %.0f s", self.settings.url, exc, wait_s)
+            log.info("MQTT broker %s not reachable (%s); trying again", self.settings.url, exc)
 
     async def _connected(self, client: MqttClient) -> None:
         vid = self.settings.vehicle_id
         await client.publish(topic(vid, ONLINE_TOPIC), encode(
             {"online": True, "t_unix_s": round(self.ctx.clock.unix_time_s(), 3)}), qos=1, retain=True)
+        _raise_if_cancelled()
         self._next_due_s.clear()
         self._status_changed = True
         async with asyncio.TaskGroup() as tg:
@@ -189,6 +218,7 @@ class MqttService(BaseService):
             now_s = clock.now_s()
             for which in self.due(now_s):
                 await self._publish_state(client, which)
+                _raise_if_cancelled()
             await clock.sleep(self._sleep_s(clock.now_s()))
 
     def due(self, now_s: float) -> list[StateTopic]:
@@ -237,6 +267,7 @@ class MqttService(BaseService):
             while batch := self.outbox.pending():
                 for entry in batch:
                     await self._publish_record(client, entry)
+                    _raise_if_cancelled()
             self._records_waiting.clear()
             sleeper = asyncio.ensure_future(clock.sleep(RECORD_POLL_S))
             waiter = asyncio.ensure_future(self._records_waiting.wait())
@@ -265,3 +296,4 @@ class MqttService(BaseService):
             log.info("MQTT command %s: %s %s", reply["command"], reply["result"], reply["reason"])
             with contextlib.suppress(TimeoutError):
                 await client.publish(reply_topic, encode(reply), qos=RECORD_QOS, timeout=PUBACK_TIMEOUT_S)
+            _raise_if_cancelled()
