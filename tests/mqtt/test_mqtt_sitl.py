@@ -7,6 +7,10 @@ One boat, one broker and one subscriber serve the module (start-up costs once):
   Schema (``companion/mqtt/schemas.json``, the README's), that every state topic and ``online``
   arrive, that the position rate is ``USV_MQTT_POS_HZ`` in *simulated* time (the messages'
   ``t_s``), and that a dashboard connecting later gets the retained status at once;
+* the commands test publishes three commands with amqtt's own client (another process): a wrong
+  token is answered ``unauthorized``, a command outside this boat's allowlist ``denied``, an
+  allowlisted one with the token ``accepted`` (the boat connects with a user name and password,
+  commands on, a token file, allowlist HOLD and STOP_PUMP);
 * the outage test flies a four-sample mission from a pymavlink ground station, stops the broker
   after the first sample record arrived, lets the other three samples be taken while it is away
   (the companion's memory is sampled meanwhile), restarts it on the same port and checks that
@@ -47,6 +51,7 @@ HOME = (41.77, 123.43)
 SAMPLE_POINTS_NE = [(10.0, 0.0), (10.0, 10.0), (0.0, 10.0), (0.0, 0.0)]
 SAMPLE_ML = 50.0
 MODE_AUTO = 10
+TOKEN = "a-test-token-of-32-characters-ok"
 
 
 def _free_port(kind: int = socket.SOCK_STREAM) -> int:
@@ -136,9 +141,19 @@ def boat(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Boat]:
     broker.start()
     state_dir = tmp / "state"
     config = tmp / "boat.toml"
+    secrets = {"password": tmp / "mqtt.pw", "token": tmp / "mqtt.token"}
+    secrets["password"].write_text("boat-password\n")
+    secrets["token"].write_text(TOKEN + "\n")
+    for path in secrets.values():
+        path.chmod(0o600)
     config.write_text(f'[vehicle]\nstate_dir = "{state_dir}"\n[links]\n'
                       f'udp_targets = ["127.0.0.1:{gcs_port}"]\ntcp_listen = ""\n'
-                      '[mqtt]\nreconnect_max_s = 1.0\n', encoding="utf-8")
+                      '[mqtt]\nreconnect_max_s = 1.0\nusername = "boat"\n'
+                      f'password_file = "{secrets["password"]}"\ncommands = true\n'
+                      f'command_token_file = "{secrets["token"]}"\n'
+                      'command_allowlist = ["HOLD", "STOP_PUMP"]\n'
+                      '[params]\nFS_GCS_ENABLE = 0\n',  # heartbeats a loaded machine delays: no failsafe
+                      encoding="utf-8")
     env = {**os.environ, "PYTHONUNBUFFERED": "1", "XDG_STATE_HOME": str(tmp / "xdg")}
     dashboard = Dashboard(port, tmp / "dashboard.jsonl")
     try:
@@ -177,6 +192,29 @@ def test_telemetry_topics_validate_against_their_schemas_at_their_rates(boat: Bo
         late.close()
 
 
+def _command(port: int, command: dict[str, str]) -> None:
+    """Publish one command with amqtt's own client (another process, another MQTT library)."""
+    pub = Path(sys.executable).with_name("amqtt_pub")
+    subprocess.run([str(pub), "--url", f"mqtt://127.0.0.1:{port}", "-t", "usv/usv1/cmd", "-q", "1",
+                    "-m", json.dumps(command)], check=True, timeout=30, capture_output=True)
+
+
+def test_commands_need_the_token_and_the_allowlist(boat: Boat) -> None:
+    port = boat.broker.port
+    _command(port, {"id": "c1", "command": "HOLD", "token": "wrong-token-wrong-token"})
+    _command(port, {"id": "c2", "command": "RTL", "token": TOKEN})  # not in this boat's allowlist
+    _command(port, {"id": "c3", "command": "HOLD", "token": TOKEN})
+    msgs = boat.dashboard.wait_for("three replies",
+                                   lambda ms: len(_by_topic(ms, "usv/usv1/cmd/reply")) >= 3, 30)
+    replies = {r["id"]: r for r in _by_topic(msgs, "usv/usv1/cmd/reply")}
+    for reply in replies.values():
+        jsonschema.validate(reply, schemas()["cmd/reply"])
+    assert replies["c1"]["result"] == "unauthorized"
+    assert replies["c2"]["result"] == "denied"
+    assert replies["c3"]["result"] == "accepted", replies["c3"]
+    assert _by_topic(msgs, "usv/usv1/status")[-1]["mode"] == "HOLD"
+
+
 def _final_samples(state_dir: Path) -> list[tuple[int, int, str]]:
     path = state_dir / "samples.sqlite"
     if not path.exists():
@@ -213,7 +251,8 @@ def test_broker_restart_during_a_four_sample_mission_every_sample_arrives_once(b
         rss_kb = [_rss_kb(boat.sitl.pid)]
         deadline = time.monotonic() + 120
         while len(_final_samples(boat.state_dir)) < 4:  # the other three while the broker is away
-            assert time.monotonic() < deadline, _final_samples(boat.state_dir)
+            assert time.monotonic() < deadline, (_final_samples(boat.state_dir), gcs.seen.mode, gcs.seen.t_s,
+                                                 gcs.seen.texts[-8:])
             time.sleep(0.5)
             rss_kb.append(_rss_kb(boat.sitl.pid))
         away_s = gcs.seen.t_s
