@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import sqlite3
 from collections.abc import Callable
 from dataclasses import asdict
@@ -98,6 +99,12 @@ class RecordFeed:
         kind = failsafe_kind(event)
         if kind is None:
             return
+        try:  # the durable write (an fsync) waits until the current step of the event loop is done,
+            asyncio.get_running_loop().call_soon(self._add_failsafe, event, kind)  # off the 100 Hz path
+        except RuntimeError:  # no loop (a tool, a test): write now
+            self._add_failsafe(event, kind)
+
+    def _add_failsafe(self, event: StatusText, kind: str) -> None:
         number = self.outbox.last_source_id(RecordTopic.FAILSAFE) + 1
         unix_s = self.ctx.clock.unix_time_s()
         document = {"record_id": record_id(RecordTopic.FAILSAFE, number), "t_s": round(event.t_s, 3),
