@@ -198,6 +198,10 @@ class ReadyBanner(BaseService):
                 lines.append(f"  MAVLink serial {port} NOT OPEN (cannot open the device; retrying)")
             else:
                 lines.append(f"  MAVLink serial {port}")
+        if cfg["mqtt.url"]:
+            vehicle_id = cfg["mqtt.vehicle_id"] or f"usv{self.ctx.params.get_int('SYSID_THISMAV')}"
+            lines.append(f"  MQTT {cfg['mqtt.url']}  (topics usv/{vehicle_id}/#, e.g. "
+                         f"mosquitto_sub -L {cfg['mqtt.url']}/usv/{vehicle_id}/# -v)")
         lines.append(f"  state directory {cfg.state_dir()}")
         lines.append("  press Ctrl-C to stop")
         return "\n".join(lines)

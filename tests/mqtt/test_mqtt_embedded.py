@@ -40,6 +40,7 @@ def test_embedded_broker_serves_the_boats_topics_and_the_run_ends_cleanly(tmp_pa
                 topics = {json.loads(line).get("topic", "") for line in received.read_text().splitlines()
                           if line.endswith("}")}
         assert boat.wait(60) == 0, log.read_text(errors="replace")  # 30 simulated seconds, then a clean stop
+        assert f"MQTT mqtt://127.0.0.1:{port}  (topics usv/usv1/#" in log.read_text()  # the ready banner
     finally:
         dashboard.terminate()
         dashboard.wait(10)
