@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 import aiomqtt
+import jsonschema
 import pytest
 
 import companion.mqtt.service as service_module
@@ -23,7 +24,7 @@ from companion.mqtt.outbox import Outbox
 from companion.mqtt.records import RecordFeed
 from companion.mqtt.service import MqttService
 from companion.mqtt.settings import MqttCommand, MqttSettings
-from companion.mqtt.topics import StateTopic
+from companion.mqtt.topics import StateTopic, schemas
 from companion.payloads.samplelog import SampleLog
 from companion.runtime import build_context
 
@@ -149,6 +150,8 @@ async def test_records_wait_in_the_outbox_while_the_broker_is_away_then_go_once(
     svc, clock, log = _service(tmp_path, world)
     world["fail_connects"] = 3
     _sample(log, 1)
+    log.add_launch(t_unix_s=1.7e9, lat_deg=41.77, lon_deg=123.43, heading_deg=90.0, pressure_mpa=29.5,
+                   mission_seq=2, shots_left=0)
     texts = svc.ctx.bus.topic(STATUS_TEXT_TOPIC)
     texts.publish(StatusText(0.0, Severity.CRITICAL, "GCS failsafe: no heartbeat"))
     texts.publish(StatusText(0.0, Severity.INFO, "Armed"))  # not an event
@@ -156,7 +159,7 @@ async def test_records_wait_in_the_outbox_while_the_broker_is_away_then_go_once(
     for _ in range(300):
         await _advance(clock, 0.2)
         await asyncio.sleep(0.01)
-        if svc.outbox.delivered("sample-1") and svc.outbox.delivered("failsafe-1"):
+        if all(svc.outbox.delivered(r) for r in ("sample-1", "launch-1", "failsafe-1")):
             break
     assert svc.stats.connect_failures == 3 and svc.stats.connects == 1
     sample = _topics(world, "usv/usv1/sample/1")
@@ -164,6 +167,11 @@ async def test_records_wait_in_the_outbox_while_the_broker_is_away_then_go_once(
     assert len(sample) == 1 and sample[0][1]["record_id"] == "sample-1" and sample[0][2] == 1
     assert len(failsafe) == 1 and failsafe[0][1]["kind"] == "gcs"
     assert not _topics(world, "usv/usv1/failsafe/2")
+    launch = _topics(world, "usv/usv1/launch/1")
+    assert len(launch) == 1 and launch[0][1]["heading_deg"] == 90.0 and launch[0][2] == 1
+    for name, kind in (("usv/usv1/sample/1", "sample"), ("usv/usv1/launch/1", "launch"),
+                       ("usv/usv1/failsafe/1", "failsafe")):
+        jsonschema.validate(_topics(world, name)[0][1], schemas()[kind])
     _sample(log, 2)  # a second one while connected: published within the poll period
     await _advance(clock, 1.2)
     assert len(_topics(world, "usv/usv1/sample/2")) == 1 and len(_topics(world, "usv/usv1/sample/1")) == 1
