@@ -29,6 +29,7 @@ from companion.mavlink.ftp import FtpService
 from companion.mavlink.manual_control import register_manual_control
 from companion.mavlink.mission_service import MissionService
 from companion.mavlink.param_service import ParamService
+from companion.mavlink.ping import register_ping
 from companion.mavlink.telemetry import Telemetry
 from companion.mavlink.vehicle_commands import VehicleCommands
 from companion.messages import STATUS_TEXT_TOPIC, GuidedTarget, ModeNumber, Severity, StatusText
@@ -71,6 +72,7 @@ class MavlinkService(BaseService):
         d.on("SET_MODE", self._on_set_mode)
         d.on("SET_POSITION_TARGET_GLOBAL_INT", self._on_position_target)
         register_manual_control(ctx, links)
+        register_ping(links)
         self._failsafe_gcs = False
         self._failsafe_engine = False
 
