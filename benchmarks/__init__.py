@@ -16,5 +16,6 @@ BENCHMARKS: dict[str, str] = {
     "control": "benchmarks.control",
     "nav": "benchmarks.nav",
     "campaign": "benchmarks.campaign",
+    "fuzz": "benchmarks.fuzz",
 }
 """Benchmark name -> module with ``run(quick: bool) -> dict``."""
