@@ -5,7 +5,9 @@ MISSION_REQUEST_INT and validates it on arrival (an invalid item ends the upload
 MAV_MISSION_RESULT code of :mod:`companion.mission.validate`); a request that gets no
 answer within :data:`ITEM_TIMEOUT_S` is repeated up to :data:`MAX_RETRIES` times (the
 spec's 1.5 s / 5 retries, with more retries so an upload survives 30 % packet loss); the
-plan is installed and persisted only when complete and valid, then MISSION_ACK.
+plan is installed and persisted only when complete and valid, then MISSION_ACK.  A ground
+station that sends the last item again (its MISSION_ACK was lost) gets the same MISSION_ACK
+again, as from PX4, instead of silence.
 
 Download: MISSION_REQUEST_LIST -> MISSION_COUNT; items are served statelessly for any
 request, so lost packets only cost the ground station a retry.
@@ -94,6 +96,9 @@ class MissionService:
         self.item_timeout_s = item_timeout_s
         self.max_retries = max_retries
         self.uploads: dict[tuple[int, int], Upload] = {}
+        self.finished: dict[tuple[int, int], tuple[int, int]] = {}
+        """(link, mission type) -> (item count, MISSION_ACK result) of the last upload that ended
+        with its last item: a repeat of that item means our MISSION_ACK was lost, so it is resent."""
         self.completed_uploads = 0
         d = links.dispatcher
         d.on("MISSION_COUNT", self._on_count)
@@ -133,6 +138,7 @@ class MissionService:
             self._ack(link, peer, v.UNSUPPORTED, mtype)
             return
         count = int(msg.count)
+        self.finished.pop((id(link), mtype), None)
         if count == 0:
             self.uploads.pop((id(link), mtype), None)
             self.store.replace(mtype, [])
@@ -151,7 +157,10 @@ class MissionService:
         mtype = int(getattr(msg, "mission_type", 0))
         up = self.uploads.get((id(link), mtype))
         if up is None:
-            return  # late duplicate after the upload finished, or no upload: ignore
+            finished = self.finished.get((id(link), mtype))
+            if finished is not None and int(msg.seq) == finished[0] - 1:  # our MISSION_ACK was lost
+                self._ack(link, (msg.get_srcSystem(), msg.get_srcComponent()), finished[1], mtype)
+            return  # else a late duplicate after the upload finished, or no upload: ignore
         seq = int(msg.seq)
         if seq != up.expected:
             if seq < up.expected:
@@ -164,6 +173,8 @@ class MissionService:
         problem = self.validator.validate_item(item, home_item=maybe_home)
         if problem is not None:
             self._refuse(up, problem)
+            if seq == up.count - 1:
+                self.finished[(id(link), mtype)] = (up.count, problem.code)
             return
         up.items.append(item)
         up.retries = 0
@@ -173,8 +184,10 @@ class MissionService:
         problem = self._store(mtype, up.items)
         if problem is not None:
             self._refuse(up, problem)
+            self.finished[(id(link), mtype)] = (up.count, problem.code)
             return
         del self.uploads[(id(link), mtype)]
+        self.finished[(id(link), mtype)] = (up.count, v.ACCEPTED)
         self._ack(link, up.peer, v.ACCEPTED, mtype)
 
     def install(self, mission_type: int, items: list[MissionItem]) -> v.ItemProblem | None:
@@ -227,6 +240,8 @@ class MissionService:
         while True:
             await self.ctx.clock.sleep(CHECK_PERIOD_S)
             now_s = self.ctx.clock.now_s()
+            if len(self.finished) > 64:  # links come and go (TCP): keep the memory bounded
+                self.finished.clear()
             for key, up in list(self.uploads.items()):
                 if up.link.closed:
                     del self.uploads[key]
