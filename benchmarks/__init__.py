@@ -17,5 +17,6 @@ BENCHMARKS: dict[str, str] = {
     "nav": "benchmarks.nav",
     "campaign": "benchmarks.campaign",
     "fuzz": "benchmarks.fuzz",
+    "lossy_link": "benchmarks.lossy_sweep",
 }
 """Benchmark name -> module with ``run(quick: bool) -> dict``."""
