@@ -15,7 +15,9 @@ MAVLink kinds (:class:`FrameKind`):
 * ``BAD_SIGNATURE``: an extreme-field frame with the MAVLink 2 "signed" flag, a valid checksum
   and a random 13-byte signature;
 * ``BAD_LENGTH``: a valid frame whose length byte is changed and whose checksum is recomputed
-  over the wrong length (the parser must not trust the length).
+  over the wrong length (the parser must not trust the length);
+* ``MAVLINK1``: an extreme-field frame of a message with an id below 256 in MAVLink 1 framing
+  (valid checksum), as an old radio or ground station sends it.
 """
 
 from __future__ import annotations
@@ -47,6 +49,7 @@ class FrameKind(enum.Enum):
     EXTREME_FIELDS = "extreme_fields"
     BAD_SIGNATURE = "bad_signature"
     BAD_LENGTH = "bad_length"
+    MAVLINK1 = "mavlink1"
 
 
 FLOAT_EXTREMES = (math.nan, math.inf, -math.inf, 3.4e38, -3.4e38, 1e-45, -0.0, 0.0, 1.0, -1.0)
@@ -97,11 +100,11 @@ def extreme_message(cls: type, rng: random.Random) -> Any:
     return cls(*values)
 
 
-def pack(msg: Any, rng: random.Random) -> bytes:
-    """``msg`` as a MAVLink 2 frame from a random system/component with a random sequence."""
+def pack(msg: Any, rng: random.Random, *, mavlink1: bool = False) -> bytes:
+    """``msg`` as a MAVLink 2 (or 1) frame from a random system/component with a random sequence."""
     codec = new_codec(rng.randint(1, 255), rng.randint(0, 255))
     codec.seq = rng.randint(0, 255)
-    return bytes(msg.pack(codec))
+    return bytes(msg.pack(codec, force_mavlink1=mavlink1))
 
 
 def recrc(frame: bytearray, crc_extra: int) -> None:
@@ -130,6 +133,9 @@ def hostile_frame(kind: FrameKind, rng: random.Random, classes: Sequence[type] |
         for _ in range(rng.randint(0, 3)):
             data[rng.randrange(len(data))] = rng.choice((0xFD, 0xFE))
         return bytes(data)
+    if kind is FrameKind.MAVLINK1:
+        v1_classes = [c for c in (classes or message_classes()) if int(getattr(c, "id", 256)) < 256]
+        return pack(extreme_message(rng.choice(v1_classes), rng), rng, mavlink1=True)
     frame = bytearray(valid_frame(rng, classes))
     if kind is FrameKind.EXTREME_FIELDS:
         return bytes(frame)

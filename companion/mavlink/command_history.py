@@ -8,16 +8,20 @@ bottle must not be filled twice, a toggle must not toggle back because the first
 
 Rule (:class:`CommandHistory`): a command from the same ground station (source system and
 component, on any link) with the same id, frame and parameters as one that was ACCEPTED less
-than :data:`REPEAT_WINDOW_S` ago (vehicle clock) is a repeat: it is answered with the cached
-ACK and not executed.  Refused commands are not cached (they changed nothing, so a retry is
-judged afresh), nor are the read-only requests (:data:`NOT_CACHED`: a retried REQUEST_MESSAGE
-means its answer was lost, and must be sent again).  To run the same command twice on purpose,
+than :data:`REPEAT_WINDOW_S` ago (vehicle clock), while the vehicle is still in the state that
+command left it in (armed or not, and the mode), is a repeat: it is answered with the cached
+ACK and not executed.  If the state changed meanwhile (a failsafe disarmed the boat, a mission
+ended and switched to HOLD), the command is executed again: the station means it.  Refused
+commands are not cached (they changed nothing, so a retry is judged afresh), nor are the
+read-only requests (:data:`NOT_CACHED`: a retried REQUEST_MESSAGE means its answer was lost, and
+must be sent again).  To run the same command twice on purpose,
 wait :data:`REPEAT_WINDOW_S`; the vehicle says so in a STATUSTEXT when it answers a repeat.
 """
 
 from __future__ import annotations
 
 import struct
+from collections.abc import Hashable
 from dataclasses import dataclass
 
 from companion.link.signing import READ_ONLY_COMMANDS
@@ -40,6 +44,8 @@ class CachedAck:
     result_param2: int
     at_s: float
     signature: bytes
+    state: Hashable = None
+    """The vehicle's state right after the command (armed, mode)."""
 
 
 def command_signature(frame: int, params: tuple[float, ...], is_int: bool) -> bytes:
@@ -56,11 +62,13 @@ class CommandHistory:
         self._announced: set[tuple[_Source, float]] = set()
         self.repeats_answered = 0
 
-    def repeat_of(self, source: tuple[int, int], command: int, signature: bytes,
-                  now_s: float) -> CachedAck | None:
-        """The cached ACK if this command repeats one accepted within the window, else None."""
+    def repeat_of(self, source: tuple[int, int], command: int, signature: bytes, now_s: float, *,
+                  state: Hashable = None) -> CachedAck | None:
+        """The cached ACK if this command repeats one accepted within the window, in an unchanged
+        vehicle ``state``, else None."""
         cached = self._last.get((source[0], source[1], command))
-        if cached is None or cached.signature != signature or not 0.0 <= now_s - cached.at_s <= self.window_s:
+        if (cached is None or cached.signature != signature or cached.state != state
+                or not 0.0 <= now_s - cached.at_s <= self.window_s):
             return None
         self.repeats_answered += 1
         return cached
@@ -76,11 +84,11 @@ class CommandHistory:
         return True
 
     def record(self, source: tuple[int, int], command: int, signature: bytes, result: int,
-               result_param2: int, now_s: float, *, accepted: bool) -> None:
+               result_param2: int, now_s: float, *, accepted: bool, state: Hashable = None) -> None:
         """Remember an executed command's final ACK (only accepted, state-changing ones count)."""
         key = (source[0], source[1], command)
         if accepted and command not in NOT_CACHED:
-            self._last[key] = CachedAck(result, result_param2, now_s, signature)
+            self._last[key] = CachedAck(result, result_param2, now_s, signature, state)
         else:
             self._last.pop(key, None)
         if len(self._last) > 256:  # many stations and commands: forget the expired ones

@@ -68,7 +68,8 @@ class CommandService:
             return
         values = tuple(float(p) for p in params)
         signature = command_signature(frame, values, is_int)
-        repeat = self.history.repeat_of(src, int(msg.command), signature, self.ctx.clock.now_s())
+        repeat = self.history.repeat_of(src, int(msg.command), signature, self.ctx.clock.now_s(),
+                                        state=self._state())
         if repeat is not None:
             self.send_ack(link, int(msg.command), repeat.result, src, result_param2=repeat.result_param2)
             if self.history.first_repeat(src, int(msg.command)):
@@ -97,17 +98,21 @@ class CommandService:
 
         task.add_done_callback(done)
 
+    def _state(self) -> tuple[bool, int]:
+        """What a repeat must find unchanged to be answered from the cache: armed and mode."""
+        return (bool(self.vehicle.armed), int(self.vehicle.modes.current.number))
+
     async def _execute(self, link: Link, cmd: CommandRequest, src: tuple[int, int]) -> None:
         result = await self._run_handler(link, cmd, src)
-        self.history.record(src, cmd.command, command_signature(cmd.frame, cmd.params, cmd.is_int),
-                            result.result, result.result_param2, self.ctx.clock.now_s(),
-                            accepted=result.result == MAV_RESULT.ACCEPTED)
         self.send_ack(link, cmd.command, result.result, src, result_param2=result.result_param2)
         if result.after_ack is not None:
             try:
                 result.after_ack()
             except Exception:
                 log.exception("after-ack action of command %d failed", cmd.command)
+        self.history.record(src, cmd.command, command_signature(cmd.frame, cmd.params, cmd.is_int),
+                            result.result, result.result_param2, self.ctx.clock.now_s(),
+                            accepted=result.result == MAV_RESULT.ACCEPTED, state=self._state())
         if result.reason and result.result not in (MAV_RESULT.ACCEPTED, MAV_RESULT.IN_PROGRESS):
             self.vehicle.status(result.reason, Severity.WARNING)
         elif result.reason:

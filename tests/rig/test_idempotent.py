@@ -85,3 +85,25 @@ async def test_lost_mission_ack_is_sent_again_for_the_repeated_last_item(state_d
         again = await gcs.wait("MISSION_ACK")
         assert again.type == mav.MAV_MISSION_ACCEPTED
         assert len(services.vehicle.missions.items(0)) == len(plan)  # stored once, unchanged
+
+
+async def test_a_repeat_after_the_vehicle_state_changed_is_run_again(state_dir: Path) -> None:
+    """Set HOLD, something else (here the vehicle itself) switches to MANUAL, the station sets HOLD
+    again within the window: the vehicle's state is no longer what the first command left, so the
+    second one is executed, not answered from the cache."""
+    port = free_port()
+    set_hold = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_DO_SET_MODE, 0, 1, 4, 0, 0, 0, 0, 0)
+    async with (AsyncGcs(port) as gcs, paced(SimClock()) as clock,
+                running_vehicle(state_dir, [port], clock=clock) as services):
+        await gcs.connect(timeout_s=10.0)
+        assert services.vehicle.set_mode(0) is None  # MANUAL
+        gcs.send(set_hold)
+        assert (await gcs.wait("COMMAND_ACK")).result == MAV_RESULT.ACCEPTED
+        assert services.vehicle.modes.current.number == 4
+        assert services.vehicle.set_mode(0) is None  # e.g. the RC selector: back to MANUAL
+        gcs.send(set_hold)
+        assert (await gcs.wait("COMMAND_ACK")).result == MAV_RESULT.ACCEPTED
+        assert services.vehicle.modes.current.number == 4  # executed again
+        gcs.send(set_hold)  # a plain repeat (state unchanged): cached, and harmless
+        assert (await gcs.wait("COMMAND_ACK")).result == MAV_RESULT.ACCEPTED
+        assert services.mavlink.commands.history.repeats_answered == 1
