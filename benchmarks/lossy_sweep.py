@@ -6,8 +6,8 @@ One real ``usv sitl`` (real time) with two UDP links, each behind a
 (:mod:`benchmarks.lossy_gcs`: its own 0.4 s retries, 40 attempts per message) and a MAVSDK-Python
 script (:mod:`benchmarks.lossy_mavsdk`: MAVSDK's retries, the upload call repeated up to 5 times)
 upload a 20-item mission and download it again, one after the other, each in its own process.
-``max_loss_upload_completes`` is the highest rate of the sweep at which both clients completed
-(and every lower rate too).
+``max_loss_upload_completes`` is the highest rate of the sweep at which both clients' uploads
+completed (and at every lower rate too); the same per client, and for downloads.
 
 JSON: per rate and client whether upload and download completed, wall seconds and how many
 messages/calls it took; datagrams dropped by the proxies; the figure above.
@@ -32,6 +32,7 @@ RATES = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7)
 RATES_QUICK = (0.3,)
 ITEMS, ITEMS_QUICK = 20, 5
 CLIENT_TIMEOUT_S = 240.0
+CLIENTS = ("pymavlink", "mavsdk")
 
 
 def _client(module: str, port: int, args: list[str]) -> dict[str, Any]:
@@ -48,7 +49,8 @@ def _summary(result: dict[str, Any]) -> dict[str, Any]:
     up, down = result.get("upload", {}), result.get("download", {})
     return {"upload_ok": bool(up.get("ok")), "download_ok": bool(down.get("ok")),
             "upload_wall_s": up.get("wall_s"), "download_wall_s": down.get("wall_s"),
-            "upload_sent": up.get("sent", up.get("calls")), "error": result.get("error", up.get("error"))}
+            "upload_sent": up.get("sent", up.get("calls")),
+            "error": str(result.get("error", up.get("error")) or "")[:160] or None}
 
 
 def run(quick: bool) -> dict[str, Any]:
@@ -86,13 +88,19 @@ def run(quick: bool) -> dict[str, Any]:
             log.close()
             for proxy in proxies:
                 proxy.stop()
-    best = None
-    for rate in rates:
-        runs = per_rate[f"{rate:.2f}"]
-        if not all(r["upload_ok"] and r["download_ok"] for r in runs.values()):
-            break
-        best = rate
+    def highest(client: str | None, key: str = "upload_ok") -> float | None:
+        """The highest rate up to which (every lower rate too) the client(s) completed ``key``."""
+        best = None
+        for rate in rates:
+            runs = per_rate[f"{rate:.2f}"]
+            if not all(r[key] for name, r in runs.items() if client in (None, name)):
+                break
+            best = rate
+        return best
+
     return {"items": items, "impairment": "loss each way + 5 % duplicated + 5 % reordered + 10-30 ms delay",
-            "by_loss_rate": per_rate, "max_loss_upload_completes": best,
+            "by_loss_rate": per_rate, "max_loss_upload_completes": highest(None),
+            "max_loss_upload_completes_by_client": {c: highest(c) for c in CLIENTS},
+            "max_loss_download_completes_by_client": {c: highest(c, "download_ok") for c in CLIENTS},
             "datagrams_dropped": [p.stats.as_dict() for p in proxies],
             "sweep_wall_s": round(time.perf_counter() - t0, 1)}
