@@ -11,6 +11,9 @@ the next:
    last sample; handed to the controller (:meth:`ControlSystem.use_model_error`), and with the
    current-augmented filter the water current (:meth:`ControlSystem.use_current`, which guidance
    reads as ``control.water_current``);
+2b. **fence** -- the geofence (:class:`~companion.fence.guard.FenceGuard`): the boat and its
+   predicted stop point against the FENCE plan; a new breach switches the mode (FENCE_ACTION)
+   before the mode computes this sample's command;
 3. **modes** -- the active mode (:class:`~companion.modes.manager.ModeManager`, run against the
    vehicle): its target (mission item, guided point, loiter point, pilot sticks) through
    guidance (LOS path following, circle, station keeping), returned as a
@@ -77,6 +80,10 @@ class Estimator(Protocol):
 
 ModesStage = Callable[[NavState], ControlRequest | ActuatorCommand | None]
 """Stage 3: what the active mode asks of the controller for one sample."""
+
+
+GuardStage = Callable[[NavState], None]
+"""Stage 2b: a check of the sample that may change the vehicle's mode (the geofence)."""
 
 
 class Controller(Protocol):
@@ -151,6 +158,7 @@ class ServoOutput:
 class Pipeline:
     """The synchronous sample -> estimator -> modes -> controller -> servo frame pass (module doc).
 
+    ``fence``: the geofence stage (``None``: no fence checks, as on the bare hardware seam).
     ``estimator`` and ``controller`` are ``None`` on the bare hardware seam, where ``modes`` is a
     test's or a benchmark's function returning actuator commands.  ``mode_failed`` is told when
     the controller raises on a mode's request (the vehicle then falls back to HOLD, as for a
@@ -159,8 +167,10 @@ class Pipeline:
 
     def __init__(self, *, bus: Bus, estimator: Estimator | None, modes: ModesStage,
                  controller: Controller | None, output: ServoOutput,
-                 mode_failed: Callable[[Exception], None] | None = None) -> None:
+                 mode_failed: Callable[[Exception], None] | None = None,
+                 fence: GuardStage | None = None) -> None:
         self.estimator = estimator
+        self.fence = fence
         self.modes = modes
         self.controller = controller
         self.output = output
@@ -194,6 +204,8 @@ class Pipeline:
                     self._current.publish(current)
                     if controller is not None:
                         controller.use_current(current)
+        if self.fence is not None:  # 2b. geofence: a predicted breach changes the mode first
+            self._stage("fence", None, self.fence, nav)
         request = self._stage("modes", None, self.modes, nav)  # 3. the active mode's target
         command: ActuatorCommand | None = None
         if not isinstance(request, ControlRequest):  # HOLD's own command, a seam driver's, or None

@@ -37,7 +37,7 @@ from companion.link.dialect import mav
 from companion.link.endpoint import Link
 from companion.link.manager import LinkManager
 from companion.mavlink import telemetry
-from companion.messages import Severity
+from companion.messages import GuidedTarget, ModeNumber, Severity
 from companion.mission import convention
 from companion.mission import validate as v
 from companion.mission.items import MissionItem, MissionType
@@ -45,6 +45,8 @@ from companion.vehicle import Vehicle
 
 log = logging.getLogger(__name__)
 
+GUIDED_ITEM = 2
+"""MISSION_ITEM.current value of a guided-mode target (ArduPilot)."""
 ITEM_TIMEOUT_S = 1.5
 MAX_RETRIES = 10
 CHECK_PERIOD_S = 0.05
@@ -151,7 +153,9 @@ class MissionService:
         mtype = int(getattr(msg, "mission_type", 0))
         up = self.uploads.get((id(link), mtype))
         if up is None:
-            return  # late duplicate after the upload finished, or no upload: ignore
+            if int(msg.current) == GUIDED_ITEM and mtype == MissionType.MISSION:
+                self._guided_item(link, msg)
+            return  # else a late duplicate after the upload finished, or no upload: ignore
         seq = int(msg.seq)
         if seq != up.expected:
             if seq < up.expected:
@@ -176,6 +180,28 @@ class MissionService:
             return
         del self.uploads[(id(link), mtype)]
         self._ack(link, up.peer, v.ACCEPTED, mtype)
+
+    def _guided_item(self, link: Link, msg: Any) -> None:
+        """A MISSION_ITEM(_INT) with current = 2: ArduPilot's "guided mode waypoint" (MAVProxy's
+        ``guided``): a new GUIDED target, answered with MISSION_ACK (ACCEPTED; ERROR outside GUIDED;
+        INVALID_PARAM5_X/6_Y for a bad or refused position, with a STATUSTEXT)."""
+        peer = (msg.get_srcSystem(), msg.get_srcComponent())
+        item = item_from_msg(msg)
+        vehicle = self.vehicle
+        if vehicle.modes.current.number != ModeNumber.GUIDED:
+            self._ack(link, peer, v.ERROR, MissionType.MISSION)
+            vehicle.status("Guided target refused: not in GUIDED", Severity.WARNING)
+            return
+        problem = self.validator.validate_item(item.with_seq(0))
+        reason = None if problem is not None else vehicle.destination_problem(item.lat_deg, item.lon_deg)
+        if problem is not None or reason is not None:
+            code = problem.code if problem is not None else v.INVALID_PARAM5_X
+            self._ack(link, peer, code, MissionType.MISSION)
+            why = problem.reason if problem is not None else reason
+            vehicle.status(f"Guided target refused: {why}", Severity.WARNING)
+            return
+        vehicle.guided_target = GuidedTarget(item.lat_deg, item.lon_deg, None, None, self.ctx.clock.now_s())
+        self._ack(link, peer, v.ACCEPTED, MissionType.MISSION)
 
     def install(self, mission_type: int, items: list[MissionItem]) -> v.ItemProblem | None:
         """Install a complete plan as a finished upload does, for a client in the same process
@@ -203,6 +229,8 @@ class MissionService:
             return v.ItemProblem(v.INVALID, verdict.reason)
         home_item = verdict.convention is convention.Convention.HOME_PLACEHOLDER
         problem = self.validator.validate_plan(items, home_first=home_item)
+        if problem is None and mtype == MissionType.MISSION:
+            problem = self._destinations_problem(items[1:] if home_item else items)
         if problem is not None:
             return problem
         try:
@@ -213,6 +241,16 @@ class MissionService:
         kind = MissionType(mtype).name.lower()
         how = f" ({verdict.reason})" if mtype == MissionType.MISSION and self.home_first else ""
         self.vehicle.status(f"{kind.capitalize()} received: {len(items)} items{how}")
+        return None
+
+    def _destinations_problem(self, items: list[MissionItem]) -> v.ItemProblem | None:
+        """The first mission item whose position the vehicle refuses (the geofence): INVALID_PARAM5_X,
+        the code of a position the item must not have."""
+        for item in items:
+            if self.validator.needs_position(item):
+                reason = self.vehicle.destination_problem(item.lat_deg, item.lon_deg)
+                if reason is not None:
+                    return v.ItemProblem(v.INVALID_PARAM5_X, f"item {item.seq}: {reason}")
         return None
 
     def _convention(self, mtype: int, items: list[MissionItem]) -> convention.Verdict:
