@@ -104,34 +104,28 @@ class FenceGuard:
         if new_breach and self.enabled:
             self._act(check)
         elif was_breached and not self.monitor.breached and self.enabled:
-            zone = _zone_text(check.zone)
-            self.vehicle.status(f"Fence breach cleared ({check.worst_m:.0f} m from the {zone})")
+            self.vehicle.status(f"Fence breach cleared ({check.worst_m:.0f} m)")
         self._publish(nav.t_s)
 
     def _act(self, check: FenceCheck) -> None:
+        """FENCE_ACTION, told in one STATUSTEXT chunk: "Fence breach predicted (1.8 m): RTL"."""
         vehicle = self.vehicle
         action = self.params.get_int("FENCE_ACTION")
-        what = "breached" if check.outside else "breach predicted"
-        zone = _zone_text(check.zone)
+        head = f"Fence {'breached' if check.outside else 'breach predicted'} ({check.worst_m:.1f} m)"
         if not vehicle.armed or action == FenceAction.REPORT_ONLY:
-            vehicle.status(f"Fence {what}: {check.worst_m:.1f} m to the {zone}", Severity.CRITICAL)
+            vehicle.status(head, Severity.CRITICAL)
             return
         if action == FenceAction.ENGINE_STOP:
-            vehicle.status(f"Fence {what}: {check.worst_m:.1f} m to the {zone}, engine stop",
-                           Severity.CRITICAL)
+            vehicle.status(f"{head}: engine stop", Severity.CRITICAL)
             vehicle.disarm(reason="fence")
             return
         target = ModeNumber.RTL if action == FenceAction.RTL else ModeNumber.HOLD
-        if vehicle.modes.current.number == target:
-            vehicle.status(f"Fence {what}: {check.worst_m:.1f} m to the {zone}", Severity.CRITICAL)
-            return
-        reason = vehicle.set_mode(target)
+        reason = None if vehicle.modes.current.number == target else vehicle.set_mode(target)
         if reason is not None and target == ModeNumber.RTL:
             target = ModeNumber.HOLD
-            reason = vehicle.set_mode(target)
+            reason = None if vehicle.modes.current.number == target else vehicle.set_mode(target)
         mode = "HOLD" if target == ModeNumber.HOLD else "RTL"
-        vehicle.status(f"Fence {what}: {check.worst_m:.1f} m to the {zone}, "
-                       + (mode if reason is None else f"{mode} refused: {reason}"), Severity.CRITICAL)
+        vehicle.status(f"{head}: {mode}" + ("" if reason is None else " refused"), Severity.CRITICAL)
 
     def _publish(self, now_s: float) -> None:
         m = self.monitor
