@@ -26,6 +26,7 @@ from companion.messages import (
     ACTUATOR_CMD_TOPIC,
     FENCE_TOPIC,
     MODEL_ERROR_TOPIC,
+    NAV_HEALTH_TOPIC,
     NAV_TOPIC,
     RC_IN_TOPIC,
     SERVO_OUT_TOPIC,
@@ -80,12 +81,14 @@ def sensor_bits(ctx: Context, vehicle: Vehicle) -> tuple[int, int, int]:
     if fence is None or not (fence.present and fence.enabled and fence.breached):
         health |= mav.MAV_SYS_STATUS_GEOFENCE
     nav = _nav(ctx)
+    nav_health = ctx.bus.topic(NAV_HEALTH_TOPIC).latest()  # NavHealth's verdict (frozen, stuck gyro)
     if nav is not None:
         present |= _SENSORS_INS | _SENSOR_GPS
         enabled |= _SENSORS_INS | _SENSOR_GPS
-        if _fresh(ctx, nav.t_s) and nav.attitude_valid:
+        if _fresh(ctx, nav.t_s) and nav.attitude_valid and (nav_health is None or nav_health.ins_ok):
             health |= _SENSORS_INS
-        if _fresh(ctx, nav.t_s) and nav.position_valid and nav.fix_type >= FixType.FIX_3D:
+        if (_fresh(ctx, nav.t_s) and nav.position_valid and nav.fix_type >= FixType.FIX_3D
+                and (nav_health is None or nav_health.gps_ok)):
             health |= _SENSOR_GPS
     rc = ctx.bus.topic(RC_IN_TOPIC).latest()
     if rc is not None:
