@@ -79,6 +79,9 @@ class Vehicle:
         self.guided_target: GuidedTarget | None = None
         self.speed_override_mps: float | None = None
         self.failsafe_reason: str | None = None
+        self.ins_fault: str | None = None
+        """Set by NavHealth while the GPS-INS cannot steer the boat (frozen, stale IMU, no data):
+        :meth:`nav` is then ``None``, so navigating modes and position commands are refused."""
         self.servo_overrides_us: dict[int, int] = {}
         """DO_SET_SERVO / DO_SET_RELAY: free output channel (1-based) -> pulse width; the servo
         map writes these into every frame (see :mod:`companion.actuators.overrides`)."""
@@ -114,7 +117,7 @@ class Vehicle:
     def nav(self) -> NavState | None:
         """The latest navigation solution, or ``None`` if there is none or it is stale."""
         nav = self._nav.latest()
-        if nav is None or self.ctx.clock.now_s() - nav.t_s > NAV_STALE_S:
+        if nav is None or self.ins_fault is not None or self.ctx.clock.now_s() - nav.t_s > NAV_STALE_S:
             return None
         return nav
 

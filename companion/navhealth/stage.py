@@ -99,6 +99,7 @@ class NavHealth:
                 else:
                     self._act(verdict.fault)
             self.fault, self._ins_ok = verdict.fault, verdict.ins_ok
+            vehicle.ins_fault = None if verdict.ins_ok else verdict.fault
             self._publish(now_s)
         if (self.fault and self.action_taken is None and self.fault_since_s is not None
                 and now_s - self.fault_since_s >= self.params.get("USV_FS_DR_S")):
