@@ -81,6 +81,7 @@ _MISSION_COMMANDS: dict[int, bool] = {
     **{c: False for c in range(mi.CMD_USER_FIRST, mi.CMD_USER_LAST + 1)},
 }
 _FENCE_COMMANDS: dict[int, bool] = {
+    mi.CMD_NAV_FENCE_RETURN_POINT: True,  # QGC's "breach return"; stored, not used (Rover returns home)
     mi.CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION: True,
     mi.CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION: True,
     mi.CMD_NAV_FENCE_CIRCLE_INCLUSION: True,

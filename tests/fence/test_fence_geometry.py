@@ -118,3 +118,11 @@ def test_breach_episodes_count_once_and_clear_with_hysteresis() -> None:
     lat, lon = FRAME.to_lat_lon(0.0, 101.0)
     assert monitor.update(check_fence(fence, lat, lon, 0.0, 0.0, 1.0, 0.5), margin, 9.0)
     assert monitor.breach_count == 2 and monitor.last is not None and monitor.last.outside
+
+
+def test_a_breach_return_point_is_accepted_and_not_a_zone() -> None:
+    """QGC uploads a breach return point (MAV_CMD_NAV_FENCE_RETURN_POINT) with the zones if the user
+    places one: the plan is accepted, the point stored and not used (RTL goes home, as on Rover)."""
+    plan = [fence_item(0, mi.CMD_NAV_FENCE_RETURN_POINT, 10.0, 10.0, 0.0), *square(1, 50.0)]
+    assert BUILT_IN.validate_plan(plan, home_first=False) is None
+    assert len(fence_from_plan(plan).zones) == 1
