@@ -45,7 +45,7 @@ class CircleZone:
         return inside_m if self.kind is ZoneKind.INCLUSION else -inside_m
 
     def describe(self) -> str:
-        return f"{self.kind.value} circle r={self.radius_m:g} m"
+        return f"{self.kind.value} circle"
 
 
 @dataclass(frozen=True, slots=True)
@@ -76,7 +76,7 @@ class PolygonZone:
         return inside_m if self.kind is ZoneKind.INCLUSION else -inside_m
 
     def describe(self) -> str:
-        return f"{self.kind.value} polygon ({len(self.vertices_ne)} vertices)"
+        return f"{self.kind.value} polygon"
 
 
 Zone = CircleZone | PolygonZone
