@@ -27,6 +27,7 @@ from companion.estimation.service import (
     load_companion_ukf_backend,
     load_companion_ukf_settings,
 )
+from companion.fence.guard import FenceGuard
 from companion.hardware import HardwareIoService, HardwareLinks
 from companion.link.manager import LinkManager
 from companion.mavlink.commands import CommandRegistry
@@ -36,6 +37,7 @@ from companion.mission.cursor import MissionCursor
 from companion.mission.store import MissionStore
 from companion.mission.validate import ItemRule, MissionValidator
 from companion.modes.manager import MODE_CLASSES, ModeManager
+from companion.navhealth.stage import NavHealth
 from companion.param_table import all_param_defs
 from companion.params import ParamStore
 from companion.payloads.registry import PayloadDef, PayloadRegistry, built_in_payloads
@@ -82,6 +84,10 @@ class Services:
     """PID / active-model controller families and the actuator mapping (stage 4 of the pipeline)."""
     vehicle: Vehicle
     """Arming, home, targets, modes (stage 3 of the pipeline) and mission progress."""
+    fence: FenceGuard
+    """The geofence (stage 2b of the pipeline), target and pre-arm checks."""
+    nav_health: NavHealth
+    """GPS-INS fault detection and the degraded action (stage 1 of the pipeline)."""
     pipeline: Pipeline
     """The 100 Hz path: sample -> estimator -> modes -> controller -> servo frame."""
     mavlink: MavlinkService
@@ -113,18 +119,22 @@ def build_companion(ctx: Context, hardware: HardwareLinks | None = None,
     profile = str(config["vehicle.profile"])
     mission = MissionCursor(MissionStore(config.state_dir() / "missions"), home_placeholder_profile(profile))
     vehicle = Vehicle(ctx, mission, ModeManager(MODE_CLASSES), control, actions)
+    fence = FenceGuard(params, clock, bus, vehicle, mission.store)
+    nav_health = NavHealth(params, clock, bus, vehicle)
     # the 100 Hz pipeline: sample -> estimator -> modes -> controller -> servo frame
     servo_map = ServoMap(params, payloads.servo_channels, overrides_us=vehicle.servo_overrides_us)
     output = ServoOutput(servo_map, clock, bus, LoopStats())
     pipeline = Pipeline(bus=bus, estimator=estimator, modes=vehicle.update_mode, controller=control,
-                        output=output, mode_failed=vehicle.mode_failed)
+                        output=output, mode_failed=vehicle.mode_failed, fence=fence.step,
+                        nav_health=nav_health)
     # the MAVLink face and the hardware seam
     telemetry = Telemetry(ctx, vehicle, {s.msg_id: s.build for s in payloads.status_messages})
     validator = MissionValidator({a.command: ItemRule(a.needs_position, a.check) for a in actions.values()})
     mavlink = MavlinkService(ctx, links, vehicle, commands, telemetry, validator, servo_map)
     hardware_io = HardwareIoService(ctx, pipeline, hardware, payloads.sentences)
     return Services(ctx=ctx, payloads=payloads, links=links, commands=commands, estimator=estimator,
-                    control=control, vehicle=vehicle, pipeline=pipeline, mavlink=mavlink,
+                    control=control, vehicle=vehicle, fence=fence, nav_health=nav_health,
+                    pipeline=pipeline, mavlink=mavlink,
                     hardware=hardware_io)
 
 

@@ -40,7 +40,8 @@ from companion.modes.base import ModeOutput
 from companion.modes.manager import ModeManager
 from companion.params import ParamStore
 
-__all__ = ["FORCE_MAGIC", "NAV_STALE_S", "MissionState", "PrearmCheck", "Vehicle", "home_placeholder_profile"]
+__all__ = ["FORCE_MAGIC", "NAV_STALE_S", "DestinationCheck", "MissionState", "PrearmCheck", "Vehicle",
+           "home_placeholder_profile"]
 
 log = logging.getLogger(__name__)
 
@@ -51,6 +52,8 @@ FORCE_MAGIC = 21196
 """param2 of MAV_CMD_COMPONENT_ARM_DISARM that forces arming/disarming (ArduPilot, PX4)."""
 
 PrearmCheck = Callable[["Vehicle"], str | None]
+DestinationCheck = Callable[[float, float], str | None]
+"""``check(lat_deg, lon_deg)``: why the boat may not be sent there (e.g. the geofence), or ``None``."""
 
 
 def home_placeholder_profile(profile: str) -> bool:
@@ -76,6 +79,9 @@ class Vehicle:
         self.guided_target: GuidedTarget | None = None
         self.speed_override_mps: float | None = None
         self.failsafe_reason: str | None = None
+        self.ins_fault: str | None = None
+        """Set by NavHealth while the GPS-INS cannot steer the boat (frozen, stale IMU, no data):
+        :meth:`nav` is then ``None``, so navigating modes and position commands are refused."""
         self.servo_overrides_us: dict[int, int] = {}
         """DO_SET_SERVO / DO_SET_RELAY: free output channel (1-based) -> pulse width; the servo
         map writes these into every frame (see :mod:`companion.actuators.overrides`)."""
@@ -85,6 +91,7 @@ class Vehicle:
         self._prearm_checks: list[tuple[str, PrearmCheck]] = [
             ("position", _check_position), ("attitude", _check_attitude),
         ]
+        self._destination_checks: list[tuple[str, DestinationCheck]] = []
         self.home_listeners: list[Callable[[Home], None]] = []
         self.status_listeners: list[Callable[[], None]] = []
         self._nav = ctx.bus.topic(NAV_TOPIC)
@@ -110,7 +117,7 @@ class Vehicle:
     def nav(self) -> NavState | None:
         """The latest navigation solution, or ``None`` if there is none or it is stale."""
         nav = self._nav.latest()
-        if nav is None or self.ctx.clock.now_s() - nav.t_s > NAV_STALE_S:
+        if nav is None or self.ins_fault is not None or self.ctx.clock.now_s() - nav.t_s > NAV_STALE_S:
             return None
         return nav
 
@@ -159,6 +166,23 @@ class Vehicle:
             if reason:
                 reasons.append(reason)
         return reasons
+
+    def add_destination_check(self, name: str, check: DestinationCheck) -> None:
+        """Add a check of every place the boat is sent to (GUIDED targets, mission items)."""
+        self._destination_checks = [(n, c) for n, c in self._destination_checks if n != name]
+        self._destination_checks.append((name, check))
+
+    def destination_problem(self, lat_deg: float, lon_deg: float) -> str | None:
+        """Why the boat may not be sent to (``lat_deg``, ``lon_deg``), or ``None``."""
+        for name, check in self._destination_checks:
+            try:
+                reason = check(lat_deg, lon_deg)
+            except Exception as exc:
+                log.exception("destination check %s failed", name)
+                reason = f"{name} check failed ({exc})"
+            if reason:
+                return reason
+        return None
 
     def arm(self, *, force: bool = False) -> str | None:
         """Arm after the pre-arm checks; returns ``None`` or the reason for refusal."""

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
 from pathlib import Path
 
 from companion.app import Application
@@ -22,17 +23,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "[security] signing_key_file")
     parser.add_argument("--duration", type=float, default=None,
                         help="stop after this many seconds of simulated time")
+    parser.add_argument("--fault", action="append", default=[], metavar="KIND@START[-END]",
+                        help="inject a GPS-INS fault in the simulator from START to END simulated seconds "
+                             "(gps_outage, silent, gyro_stuck, frozen, nan_velocity, imu_silent); repeatable")
     parser.add_argument("--truth-log", type=Path, default=None, metavar="FILE.csv",
                         help="write the simulated boat's true position (20 Hz of simulated time) to this CSV "
                              "(for benchmarks; see sim_bridge/truthlog.py)")
 
 
-async def run_sitl(config: Config, duration_s: float | None = None, truth_log: Path | None = None) -> None:
+async def run_sitl(config: Config, duration_s: float | None = None, truth_log: Path | None = None,
+                   faults: Sequence[str] = ()) -> None:
     with StateDirLock(config.state_dir()):  # one instance per state directory (exit 2 otherwise)
-        await _run_sitl(config, duration_s, truth_log)
+        await _run_sitl(config, duration_s, truth_log, faults)
 
 
-async def _run_sitl(config: Config, duration_s: float | None, truth_log: Path | None) -> None:
+async def _run_sitl(config: Config, duration_s: float | None, truth_log: Path | None,
+                    faults: Sequence[str]) -> None:
     from companion.runtime import ReadyBanner, build_companion, build_context  # the whole stack: import late
     from sim_bridge.runtime import SimulatorService
 
@@ -46,6 +52,10 @@ async def _run_sitl(config: Config, duration_s: float | None, truth_log: Path | 
 
         app.add(TruthLog(sim.boat, clock, truth_log))
     app.add(ReadyBanner(ctx, "usv sitl: simulated boat + companion", services.links))
+    if faults:
+        from sim_bridge.faults import FaultSchedule, parse_fault
+
+        app.add(FaultSchedule(sim.boat.faults, clock, [parse_fault(text) for text in faults]))
     if duration_s is not None:
         from sim_bridge.runtime import StopAfter
 
@@ -55,4 +65,9 @@ async def _run_sitl(config: Config, duration_s: float | None, truth_log: Path | 
 
 def run(args: argparse.Namespace) -> int:
     config = config_from_args(args)
-    return run_async(run_sitl(config, args.duration, args.truth_log))
+    if args.fault:  # refuse a bad schedule before anything starts
+        from sim_bridge.faults import parse_fault
+
+        for text in args.fault:
+            parse_fault(text)
+    return run_async(run_sitl(config, args.duration, args.truth_log, args.fault))

@@ -39,7 +39,7 @@ from companion.link.dialect import mav
 from companion.link.endpoint import Link
 from companion.link.manager import LinkManager
 from companion.mavlink import telemetry
-from companion.messages import Severity
+from companion.messages import GuidedTarget, ModeNumber, Severity
 from companion.mission import convention
 from companion.mission import validate as v
 from companion.mission.items import MissionItem, MissionType
@@ -47,6 +47,8 @@ from companion.vehicle import Vehicle
 
 log = logging.getLogger(__name__)
 
+GUIDED_ITEM = 2
+"""MISSION_ITEM.current value of a guided-mode target (ArduPilot)."""
 ITEM_TIMEOUT_S = 0.25
 """A ground station waits for the next request, not resending its item: MAVSDK gives up after
 about six of its 0.5 s timeouts, so with 1.5 s here a 30 %-lossy link failed MAVSDK's uploads
@@ -160,6 +162,9 @@ class MissionService:
         mtype = int(getattr(msg, "mission_type", 0))
         up = self.uploads.get((id(link), mtype))
         if up is None:
+            if int(msg.current) == GUIDED_ITEM and mtype == MissionType.MISSION:
+                self._guided_item(link, msg)
+                return
             finished = self.finished.get((id(link), mtype))
             if finished is not None and int(msg.seq) == finished[0] - 1:  # our MISSION_ACK was lost
                 self._ack(link, (msg.get_srcSystem(), msg.get_srcComponent()), finished[1], mtype)
@@ -193,6 +198,28 @@ class MissionService:
         self.finished[(id(link), mtype)] = (up.count, v.ACCEPTED)
         self._ack(link, up.peer, v.ACCEPTED, mtype)
 
+    def _guided_item(self, link: Link, msg: Any) -> None:
+        """A MISSION_ITEM(_INT) with current = 2: ArduPilot's "guided mode waypoint" (MAVProxy's
+        ``guided``): a new GUIDED target, answered with MISSION_ACK (ACCEPTED; ERROR outside GUIDED;
+        INVALID_PARAM5_X/6_Y for a bad or refused position, with a STATUSTEXT)."""
+        peer = (msg.get_srcSystem(), msg.get_srcComponent())
+        item = item_from_msg(msg)
+        vehicle = self.vehicle
+        if vehicle.modes.current.number != ModeNumber.GUIDED:
+            self._ack(link, peer, v.ERROR, MissionType.MISSION)
+            vehicle.status("Guided target refused: not in GUIDED", Severity.WARNING)
+            return
+        problem = self.validator.validate_item(item.with_seq(0))
+        reason = None if problem is not None else vehicle.destination_problem(item.lat_deg, item.lon_deg)
+        if problem is not None or reason is not None:
+            code = problem.code if problem is not None else v.INVALID_PARAM5_X
+            self._ack(link, peer, code, MissionType.MISSION)
+            why = problem.reason if problem is not None else reason
+            vehicle.status(f"Guided target refused: {why}", Severity.WARNING)
+            return
+        vehicle.guided_target = GuidedTarget(item.lat_deg, item.lon_deg, None, None, self.ctx.clock.now_s())
+        self._ack(link, peer, v.ACCEPTED, MissionType.MISSION)
+
     def install(self, mission_type: int, items: list[MissionItem]) -> v.ItemProblem | None:
         """Install a complete plan as a finished upload does, for a client in the same process
         (``usv campaign``): every item checked as it would be on arrival, then item 0's convention,
@@ -219,6 +246,8 @@ class MissionService:
             return v.ItemProblem(v.INVALID, verdict.reason)
         home_item = verdict.convention is convention.Convention.HOME_PLACEHOLDER
         problem = self.validator.validate_plan(items, home_first=home_item)
+        if problem is None and mtype == MissionType.MISSION:
+            problem = self._destinations_problem(items[1:] if home_item else items)
         if problem is not None:
             return problem
         try:
@@ -229,6 +258,16 @@ class MissionService:
         kind = MissionType(mtype).name.lower()
         how = f" ({verdict.reason})" if mtype == MissionType.MISSION and self.home_first else ""
         self.vehicle.status(f"{kind.capitalize()} received: {len(items)} items{how}")
+        return None
+
+    def _destinations_problem(self, items: list[MissionItem]) -> v.ItemProblem | None:
+        """The first mission item whose position the vehicle refuses (the geofence): INVALID_PARAM5_X,
+        the code of a position the item must not have."""
+        for item in items:
+            if self.validator.needs_position(item):
+                reason = self.vehicle.destination_problem(item.lat_deg, item.lon_deg)
+                if reason is not None:
+                    return v.ItemProblem(v.INVALID_PARAM5_X, f"item {item.seq}: {reason}")
         return None
 
     def _convention(self, mtype: int, items: list[MissionItem]) -> convention.Verdict:

@@ -164,6 +164,9 @@ class MavlinkService(BaseService):
         if lat_lon_problem(lat_deg, lon_deg, zero_is_missing=True) is not None:
             self.vehicle.status("Position target refused: invalid position", Severity.WARNING)
             return
+        if (outside := self.vehicle.destination_problem(lat_deg, lon_deg)) is not None:
+            self.vehicle.status(f"Position target refused: {outside}", Severity.WARNING)
+            return  # no answer in this protocol: the STATUSTEXT is the refusal
         speed = None
         if not msg.type_mask & mav.POSITION_TARGET_TYPEMASK_VX_IGNORE:
             speed_mps = math.hypot(msg.vx, msg.vy)

@@ -1,0 +1,136 @@
+"""The geofence stage: checks the boat against the FENCE plan and acts on a predicted breach.
+
+:class:`FenceGuard` is the pipeline's ``fence`` stage (:mod:`companion.pipeline`, between the
+estimator and the modes, so a fence action changes the mode before the mode computes this
+sample's command).  It checks at :data:`CHECK_PERIOD_S` (10 Hz, ArduPilot's rate) on the
+navigation solution, with the breach logic of :mod:`.monitor`, and publishes a
+:class:`~companion.messages.FenceState` (SYS_STATUS geofence bits, FENCE_STATUS).
+
+With FENCE_ENABLE = 1 it also
+
+* acts at the start of a breach episode while armed (FENCE_ACTION: report only, RTL or HOLD,
+  HOLD, engine stop), with a CRITICAL STATUSTEXT naming the zone and the distances;
+* refuses destinations (GUIDED targets, mission items) closer than FENCE_MARGIN to a boundary
+  (:meth:`destination_problem`, a vehicle destination check);
+* refuses arming outside the fence (pre-arm check "outside the fence").
+"""
+
+from __future__ import annotations
+
+import math
+
+from companion.bus import Bus
+from companion.clock import Clock
+from companion.fence.monitor import FenceCheck, FenceMonitor, check_fence
+from companion.fence.params import FenceAction
+from companion.fence.zones import Zone, fence_from_plan
+from companion.messages import FENCE_TOPIC, FenceState, ModeNumber, NavState, Severity
+from companion.mission.items import MissionType
+from companion.mission.store import MissionStore
+from companion.params import ParamStore
+from companion.vehicle import Vehicle
+
+CHECK_PERIOD_S = 0.1
+"""Fence checks per sample are thinned to 10 Hz."""
+
+
+def _zone_text(zone: Zone | None) -> str:
+    return "fence" if zone is None else zone.describe()
+
+
+class FenceGuard:
+    """Enforces the stored FENCE plan on one vehicle (module doc)."""
+
+    def __init__(self, params: ParamStore, clock: Clock, bus: Bus, vehicle: Vehicle,
+                 store: MissionStore) -> None:
+        self.params = params
+        self.clock = clock
+        self.vehicle = vehicle
+        self.store = store
+        self.monitor = FenceMonitor()
+        self._topic = bus.topic(FENCE_TOPIC)
+        self._next_check_s = -math.inf
+        self._reload(MissionType.FENCE)
+        store.add_listener(self._reload)
+        vehicle.add_prearm_check("fence", self._prearm)
+        vehicle.add_destination_check("fence", self.destination_problem)
+
+    @property
+    def enabled(self) -> bool:
+        return self.params.get_int("FENCE_ENABLE") == 1
+
+    def _reload(self, mission_type: MissionType) -> None:
+        if mission_type == MissionType.FENCE:
+            self.monitor.set_fence(fence_from_plan(self.store.items(MissionType.FENCE)))
+            self._next_check_s = -math.inf
+            self._publish(self.clock.now_s())
+
+    # -- checks of places ---------------------------------------------------------------
+    def destination_problem(self, lat_deg: float, lon_deg: float) -> str | None:
+        """Why the boat may not be sent to (``lat_deg``, ``lon_deg``): closer than FENCE_MARGIN to a
+        boundary or beyond it; ``None`` when the fence is off or empty."""
+        fence = self.monitor.fence
+        if not self.enabled or fence.empty:
+            return None
+        clearance_m, zone = fence.clearance_at_m(lat_deg, lon_deg)
+        margin_m = self.params.get("FENCE_MARGIN")
+        if clearance_m >= margin_m:
+            return None
+        where = "outside" if clearance_m < 0 else "within FENCE_MARGIN of"
+        return f"{where} the {_zone_text(zone)} ({clearance_m:.0f} m)"
+
+    def _prearm(self, vehicle: Vehicle) -> str | None:
+        nav = vehicle.nav()
+        if nav is None or not self.enabled or self.monitor.fence.empty:
+            return None
+        clearance_m, zone = self.monitor.fence.clearance_at_m(nav.lat_deg, nav.lon_deg)
+        return f"vehicle outside the {_zone_text(zone)}" if clearance_m < 0 else None
+
+    # -- the pipeline stage -------------------------------------------------------------
+    def step(self, nav: NavState) -> None:
+        """Check the sample's position (10 Hz) and act on a new breach episode."""
+        if nav.t_s < self._next_check_s:
+            return
+        self._next_check_s = nav.t_s + CHECK_PERIOD_S
+        fence = self.monitor.fence
+        if fence.empty or not (math.isfinite(nav.lat_deg) and math.isfinite(nav.lon_deg)):
+            self._publish(nav.t_s)
+            return
+        params = self.params
+        check = check_fence(fence, nav.lat_deg, nav.lon_deg, nav.vel_north_mps, nav.vel_east_mps,
+                            params.get("USV_FENCE_REACT"), math.radians(params.get("USV_FENCE_YAWR")))
+        was_breached = self.monitor.breached
+        new_breach = self.monitor.update(check, params.get("FENCE_MARGIN"), nav.t_s)
+        if new_breach and self.enabled:
+            self._act(check)
+        elif was_breached and not self.monitor.breached and self.enabled:
+            self.vehicle.status(f"Fence breach cleared ({check.worst_m:.0f} m)")
+        self._publish(nav.t_s)
+
+    def _act(self, check: FenceCheck) -> None:
+        """FENCE_ACTION, told in one STATUSTEXT chunk: "Fence breach predicted (1.8 m): RTL"."""
+        vehicle = self.vehicle
+        action = self.params.get_int("FENCE_ACTION")
+        head = f"Fence {'breached' if check.outside else 'breach predicted'} ({check.worst_m:.1f} m)"
+        if not vehicle.armed or action == FenceAction.REPORT_ONLY:
+            vehicle.status(head, Severity.CRITICAL)
+            return
+        if action == FenceAction.ENGINE_STOP:
+            vehicle.status(f"{head}: engine stop", Severity.CRITICAL)
+            vehicle.disarm(reason="fence")
+            return
+        target = ModeNumber.RTL if action == FenceAction.RTL else ModeNumber.HOLD
+        reason = None if vehicle.modes.current.number == target else vehicle.set_mode(target)
+        if reason is not None and target == ModeNumber.RTL:
+            target = ModeNumber.HOLD
+            reason = None if vehicle.modes.current.number == target else vehicle.set_mode(target)
+        mode = "HOLD" if target == ModeNumber.HOLD else "RTL"
+        vehicle.status(f"{head}: {mode}" + ("" if reason is None else " refused"), Severity.CRITICAL)
+
+    def _publish(self, now_s: float) -> None:
+        m = self.monitor
+        last = m.last
+        self._topic.publish(FenceState(
+            t_s=now_s, present=not m.fence.empty, enabled=self.enabled, breached=m.breached,
+            breach_count=m.breach_count, breach_time_s=m.breach_time_s,
+            clearance_m=math.inf if last is None else last.clearance_m))
