@@ -11,7 +11,8 @@ With FENCE_ENABLE = 1 it also
 * acts at the start of a breach episode while armed (FENCE_ACTION: report only, RTL or HOLD,
   HOLD, engine stop), with a CRITICAL STATUSTEXT naming the zone and the distances;
 * refuses destinations (GUIDED targets, mission items) closer than FENCE_MARGIN to a boundary
-  (:meth:`destination_problem`, a vehicle destination check);
+  (:meth:`destination_problem`, a vehicle destination check), and straight legs to them that leave
+  an inclusion zone, cross an exclusion zone or pass within FENCE_MARGIN (:meth:`leg_problem`);
 * refuses arming outside the fence (pre-arm check "outside the fence").
 """
 
@@ -21,11 +22,13 @@ import math
 
 from companion.bus import Bus
 from companion.clock import Clock
+from companion.fence import legs
 from companion.fence.monitor import FenceCheck, FenceMonitor, check_fence
 from companion.fence.params import FenceAction
 from companion.fence.zones import Zone, fence_from_plan
 from companion.messages import FENCE_TOPIC, FenceState, ModeNumber, NavState, Severity
 from companion.mission.items import MissionType
+from companion.mission.route import LatLon
 from companion.mission.store import MissionStore
 from companion.params import ParamStore
 from companion.vehicle import Vehicle
@@ -54,6 +57,7 @@ class FenceGuard:
         store.add_listener(self._reload)
         vehicle.add_prearm_check("fence", self._prearm)
         vehicle.add_destination_check("fence", self.destination_problem)
+        vehicle.add_leg_check("fence", self.leg_problem)
 
     @property
     def enabled(self) -> bool:
@@ -78,6 +82,17 @@ class FenceGuard:
             return None
         where = "outside" if clearance_m < 0 else "within FENCE_MARGIN of"
         return f"{where} the {_zone_text(zone)} ({clearance_m:.0f} m)"
+
+    def leg_problem(self, start: LatLon, end: LatLon, *, keep_margin: bool = True) -> str | None:
+        """Why the boat may not drive straight from ``start`` to ``end`` (lat, lon): it would leave an
+        inclusion zone, cross an exclusion zone or pass within FENCE_MARGIN of a boundary
+        (:func:`.legs.leg_problem`); ``None`` when the fence is off or empty."""
+        fence = self.monitor.fence
+        if not self.enabled or fence.empty:
+            return None
+        margin_m = self.params.get("FENCE_MARGIN")
+        a_ne, b_ne = fence.to_ne(*start), fence.to_ne(*end)
+        return legs.leg_problem(fence, a_ne, b_ne, margin_m, keep_margin=keep_margin)
 
     def _prearm(self, vehicle: Vehicle) -> str | None:
         nav = vehicle.nav()
