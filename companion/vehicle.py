@@ -34,7 +34,7 @@ from companion.messages import (
 )
 from companion.mission.cursor import MissionCursor, MissionState
 from companion.mission.items import MissionItem
-from companion.mission.route import LatLon, LegCheck
+from companion.mission.route import LatLon, Legs, LegsCheck
 from companion.mission.store import MissionStore
 from companion.modes.auto_items import MissionAction
 from companion.modes.base import ModeOutput
@@ -95,7 +95,7 @@ class Vehicle:
             ("position", _check_position), ("attitude", _check_attitude),
         ]
         self._destination_checks: list[tuple[str, DestinationCheck]] = []
-        self._leg_checks: list[tuple[str, LegCheck]] = []
+        self._leg_checks: list[tuple[str, LegsCheck]] = []
         self._mode_checks: list[tuple[str, ModeCheck]] = []
         self.home_listeners: list[Callable[[Home], None]] = []
         self.status_listeners: list[Callable[[], None]] = []
@@ -189,23 +189,29 @@ class Vehicle:
                 return reason
         return None
 
-    def add_leg_check(self, name: str, check: LegCheck) -> None:
-        """Add a check of every straight leg the boat is sent along (mission legs, the way to a
-        GUIDED target)."""
+    def add_leg_check(self, name: str, check: LegsCheck) -> None:
+        """Add a check of the straight legs the boat is sent along (mission legs, the way to a GUIDED
+        target): ``check(legs)`` returns the first refused leg's index and why."""
         self._leg_checks = [(n, c) for n, c in self._leg_checks if n != name]
         self._leg_checks.append((name, check))
 
-    def leg_problem(self, start: LatLon, end: LatLon) -> str | None:
-        """Why the boat may not drive straight from ``start`` to ``end`` (lat, lon), or ``None``."""
+    def legs_problem(self, legs: Legs) -> tuple[int, str] | None:
+        """The first of the (start, end) legs (lat, lon) the boat may not drive straight, and why."""
+        first: tuple[int, str] | None = None
         for name, check in self._leg_checks:
             try:
-                reason = check(start, end)
+                found = check(legs)
             except Exception as exc:
                 log.exception("leg check %s failed", name)
-                reason = f"{name} check failed ({exc})"
-            if reason:
-                return reason
-        return None
+                found = (0, f"{name} check failed ({exc})") if legs else None
+            if found is not None and (first is None or found[0] < first[0]):
+                first = found
+        return first
+
+    def leg_problem(self, start: LatLon, end: LatLon) -> str | None:
+        """Why the boat may not drive straight from ``start`` to ``end`` (lat, lon), or ``None``."""
+        found = self.legs_problem([(start, end)])
+        return None if found is None else found[1]
 
     def target_problem(self, lat_deg: float, lon_deg: float) -> str | None:
         """Why the boat may not be sent to (``lat_deg``, ``lon_deg``) now: the place itself, then the

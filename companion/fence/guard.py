@@ -28,7 +28,7 @@ from companion.fence.params import FenceAction
 from companion.fence.zones import Zone, fence_from_plan
 from companion.messages import FENCE_TOPIC, FenceState, ModeNumber, NavState, Severity
 from companion.mission.items import MissionType
-from companion.mission.route import LatLon
+from companion.mission.route import LatLon, Legs
 from companion.mission.store import MissionStore
 from companion.params import ParamStore
 from companion.vehicle import Vehicle
@@ -57,7 +57,7 @@ class FenceGuard:
         store.add_listener(self._reload)
         vehicle.add_prearm_check("fence", self._prearm)
         vehicle.add_destination_check("fence", self.destination_problem)
-        vehicle.add_leg_check("fence", self.leg_problem)
+        vehicle.add_leg_check("fence", self.legs_problem)
         vehicle.add_mode_check("fence", self._mode_check)
         vehicle.home_listeners.append(self._on_home)
 
@@ -86,16 +86,20 @@ class FenceGuard:
         where = "outside" if clearance_m < 0 else "within FENCE_MARGIN of"
         return f"{where} the {_zone_text(zone)} ({clearance_m:.0f} m)"
 
-    def leg_problem(self, start: LatLon, end: LatLon, *, keep_margin: bool = True) -> str | None:
-        """Why the boat may not drive straight from ``start`` to ``end`` (lat, lon): it would leave an
-        inclusion zone, cross an exclusion zone or pass within FENCE_MARGIN of a boundary
-        (:func:`.legs.leg_problem`); ``None`` when the fence is off or empty."""
+    def legs_problem(self, legs_lat_lon: Legs, *, keep_margin: bool = True) -> tuple[int, str] | None:
+        """The first (start, end) leg (lat, lon) that would leave an inclusion zone, cross an exclusion
+        zone or pass within FENCE_MARGIN of a boundary, and why (:func:`.legs.legs_problem`, all legs
+        at once); ``None`` when the fence is off or empty."""
         fence = self.monitor.fence
         if not self.enabled or fence.empty:
             return None
-        margin_m = self.params.get("FENCE_MARGIN")
-        a_ne, b_ne = fence.to_ne(*start), fence.to_ne(*end)
-        return legs.leg_problem(fence, a_ne, b_ne, margin_m, keep_margin=keep_margin)
+        legs_ne = [(fence.to_ne(*start), fence.to_ne(*end)) for start, end in legs_lat_lon]
+        return legs.legs_problem(fence, legs_ne, self.params.get("FENCE_MARGIN"), keep_margin=keep_margin)
+
+    def leg_problem(self, start: LatLon, end: LatLon, *, keep_margin: bool = True) -> str | None:
+        """Why the boat may not drive straight from ``start`` to ``end`` (:meth:`legs_problem`)."""
+        found = self.legs_problem([(start, end)], keep_margin=keep_margin)
+        return None if found is None else found[1]
 
     def home_problem(self, vehicle: Vehicle) -> str | None:
         """Why RTL would take the boat out of the fence: home outside it, or the straight way home from

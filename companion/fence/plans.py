@@ -56,7 +56,7 @@ class FencePlanCheck:
         items = [i for i in vehicle.mission_items() if i.seq >= vehicle.first_mission_seq]
         home = None if vehicle.home is None else (vehicle.home.lat_deg, vehicle.home.lon_deg)
         problem = route_problem(items, home, self.needs_position, vehicle.destination_problem,
-                                vehicle.leg_problem)
+                                vehicle.legs_problem)
         return None if problem is None else problem.reason
 
     def rally_problems(self) -> list[str]:

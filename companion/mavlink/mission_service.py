@@ -257,7 +257,7 @@ class MissionService:
             return None
         home = None if vehicle.home is None else (vehicle.home.lat_deg, vehicle.home.lon_deg)
         return route.route_problem(items, home, self.validator.needs_position, vehicle.destination_problem,
-                                   vehicle.leg_problem)
+                                   vehicle.legs_problem)
 
     def _convention(self, mtype: int, items: list[MissionItem]) -> convention.Verdict:
         """How item 0 of a complete upload is to be read (always plain without home-first)."""

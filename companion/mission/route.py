@@ -29,8 +29,10 @@ from companion.mission.items import MissionItem
 LatLon = tuple[float, float]
 PlaceCheck = Callable[[float, float], str | None]
 """``check(lat_deg, lon_deg)``: why the boat may not go there, or ``None``."""
-LegCheck = Callable[[LatLon, LatLon], str | None]
-"""``check(start, end)``: why the boat may not drive straight from start to end, or ``None``."""
+Legs = Sequence[tuple[LatLon, LatLon]]
+LegsCheck = Callable[[Legs], tuple[int, str] | None]
+"""``check(legs)``: the first of the (start, end) legs the boat may not drive straight and why, or
+``None`` (all legs at once: a geofence checks them as arrays)."""
 HOME = "home"
 
 
@@ -84,12 +86,12 @@ def mission_legs(items: Sequence[MissionItem], home: LatLon | None,
 
 def route_problem(items: Sequence[MissionItem], home: LatLon | None,
                   needs_position: Callable[[MissionItem], bool], place_problem: PlaceCheck,
-                  leg_problem: LegCheck) -> v.ItemProblem | None:
+                  legs_problem: LegsCheck) -> v.ItemProblem | None:
     """The first positional item, then the first leg, the vehicle refuses (module doc), or ``None``."""
     for item in items:
         if needs_position(item) and (reason := place_problem(item.lat_deg, item.lon_deg)) is not None:
             return v.ItemProblem(v.INVALID_PARAM5_X, f"item {item.seq}: {reason}")
-    for leg in mission_legs(items, home, needs_position):
-        if (reason := leg_problem(leg.start, leg.end)) is not None:
-            return v.ItemProblem(v.INVALID, f"{leg.name}: {reason}")
+    legs = mission_legs(items, home, needs_position)
+    if (found := legs_problem([(leg.start, leg.end) for leg in legs])) is not None:
+        return v.ItemProblem(v.INVALID, f"{legs[found[0]].name}: {found[1]}")
     return None

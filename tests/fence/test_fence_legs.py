@@ -4,9 +4,12 @@ RTL items and DO_SET_HOME legs."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
+import numpy as np
 import pytest
 
-from companion.fence.legs import leg_clearance, leg_problem
+from companion.fence.legs import LegClearances, leg_clearances, leg_problem, legs_problem
 from companion.fence.zones import CircleZone, Fence, PolygonZone, ZoneKind
 from companion.guidance.geo import LocalFrame
 from companion.mission import items as mi
@@ -22,12 +25,18 @@ ROCK = PolygonZone(ZoneKind.EXCLUSION, ((40, -10), (40, 10), (60, 10), (60, -10)
 BIG = PolygonZone(ZoneKind.INCLUSION, ((-100, -100), (-100, 100), (100, 100), (100, -100)))
 
 
+def leg_clearance_1(zone: PolygonZone | CircleZone, a: tuple[float, float],
+                    b: tuple[float, float]) -> LegClearances:
+    """One leg through the batched geometry."""
+    return leg_clearances(zone, np.array([a], dtype=float), np.array([b], dtype=float))
+
+
 def fence(*zones: PolygonZone | CircleZone) -> Fence:
     return Fence(FRAME, zones)
 
 
 def test_a_leg_across_the_notch_of_a_concave_inclusion_leaves_it() -> None:
-    leg = leg_clearance(U_SHAPE, (25.0, 5.0), (25.0, 25.0))  # from one arm to the other, straight
+    leg = leg_clearance_1(U_SHAPE, (25.0, 5.0), (25.0, 25.0))  # from one arm to the other, straight
     assert leg.crossings == 2 and leg.start_m > 0 and leg.end_m > 0
     assert leg_problem(fence(U_SHAPE), (25.0, 5.0), (25.0, 25.0), 1.0) == "leaves the inclusion polygon"
     # the way round (down one arm, across the base) is fine with a 1 m margin
@@ -41,7 +50,7 @@ def test_a_leg_through_an_exclusion_polygon_crosses_it_and_one_beside_it_keeps_t
     assert leg_problem(f, (0.0, 15.0), (90.0, 15.0), 2.0) is None  # 5 m beside the rock
     why = leg_problem(f, (0.0, 11.0), (90.0, 11.0), 2.0)  # 1 m beside it: within a 2 m margin
     assert why is not None and why.startswith("passes within FENCE_MARGIN of the exclusion polygon")
-    assert leg_clearance(ROCK, (0.0, 11.0), (90.0, 11.0)).min_m == pytest.approx(1.0)
+    assert leg_clearance_1(ROCK, (0.0, 11.0), (90.0, 11.0)).min_m == pytest.approx(1.0)
 
 
 def test_a_boat_inside_the_margin_may_move_away_from_the_edge_but_not_closer() -> None:
@@ -67,10 +76,10 @@ def test_circles_inclusion_and_exclusion() -> None:
     buoy = CircleZone(ZoneKind.EXCLUSION, (50.0, 0.0), 10.0)
     f = fence(keep_in, buoy)
     assert leg_problem(f, (0.0, 0.0), (90.0, 0.0), 2.0) == "crosses the exclusion circle"
-    assert leg_clearance(buoy, (0.0, 0.0), (90.0, 0.0)).crossings == 2
-    assert leg_clearance(buoy, (0.0, 20.0), (90.0, 20.0)).min_m == pytest.approx(10.0)
+    assert leg_clearance_1(buoy, (0.0, 0.0), (90.0, 0.0)).crossings == 2
+    assert leg_clearance_1(buoy, (0.0, 20.0), (90.0, 20.0)).min_m == pytest.approx(10.0)
     assert leg_problem(f, (0.0, 20.0), (90.0, 20.0), 2.0) is None
-    assert leg_clearance(keep_in, (0.0, 0.0), (60.0, 0.0)).min_m == pytest.approx(40.0)
+    assert leg_clearance_1(keep_in, (0.0, 0.0), (60.0, 0.0)).min_m == pytest.approx(40.0)
     assert leg_problem(f, (0.0, -150.0), (0.0, -50.0), 2.0) is None  # from outside, in once
 
 
@@ -103,15 +112,30 @@ def test_route_problem_names_the_item_or_the_leg() -> None:
         c, _ = f.clearance_at_m(lat, lon)
         return None if c >= 2.0 else "outside"
 
-    def leg(a: tuple[float, float], b: tuple[float, float]) -> str | None:
-        return leg_problem(f, f.to_ne(*a), f.to_ne(*b), 2.0)
+    def legs(pairs: Sequence[tuple[tuple[float, float], tuple[float, float]]]) -> tuple[int, str] | None:
+        return legs_problem(f, [(f.to_ne(*a), f.to_ne(*b)) for a, b in pairs], 2.0)
 
     home = FRAME.to_lat_lon(0.0, 0.0)
     through = [waypoint(1, 20, 0), waypoint(2, 80, 0)]
-    problem = route_problem(through, home, v.BUILT_IN.needs_position, place, leg)
+    problem = route_problem(through, home, v.BUILT_IN.needs_position, place, legs)
     assert problem == v.ItemProblem(v.INVALID, "leg 1-2: crosses the exclusion polygon")
     outside = [waypoint(1, 20, 0), waypoint(2, 200, 0)]
-    problem = route_problem(outside, home, v.BUILT_IN.needs_position, place, leg)
+    problem = route_problem(outside, home, v.BUILT_IN.needs_position, place, legs)
     assert problem == v.ItemProblem(v.INVALID_PARAM5_X, "item 2: outside")
     around = [waypoint(1, 20, 30), waypoint(2, 80, 30), waypoint(3, 80, 0)]
-    assert route_problem(around, home, v.BUILT_IN.needs_position, place, leg) is None
+    assert route_problem(around, home, v.BUILT_IN.needs_position, place, legs) is None
+
+
+def test_batched_ends_agree_with_the_zone_clearance_and_the_first_bad_leg_is_named() -> None:
+    rng = np.random.default_rng(7)
+    a, b = rng.uniform(-120, 120, (300, 2)), rng.uniform(-120, 120, (300, 2))
+    for zone in (U_SHAPE, ROCK, BIG, CircleZone(ZoneKind.EXCLUSION, (10.0, -5.0), 30.0)):
+        legs = leg_clearances(zone, a, b)
+        assert legs.start_m == pytest.approx([zone.clearance_m((n, e)) for n, e in a])
+        assert legs.end_m == pytest.approx([zone.clearance_m((n, e)) for n, e in b])
+        assert np.all(legs.min_m <= np.minimum(legs.start_m, legs.end_m) + 1e-9)
+    f = fence(BIG, ROCK)
+    route = [((0.0, 0.0), (0.0, 30.0)), ((0.0, 30.0), (90.0, 30.0)), ((90.0, 30.0), (90.0, -30.0)),
+             ((90.0, -30.0), (20.0, 0.0))]  # round the rock, then back through its corner
+    assert legs_problem(f, route, 2.0) == (3, "crosses the exclusion polygon")
+    assert legs_problem(f, route[:3], 2.0) is None
