@@ -16,5 +16,6 @@ BENCHMARKS: dict[str, str] = {
     "control": "benchmarks.control",
     "nav": "benchmarks.nav",
     "campaign": "benchmarks.campaign",
+    "fence_legs": "benchmarks.fence_legs",
 }
 """Benchmark name -> module with ``run(quick: bool) -> dict``."""
