@@ -3,7 +3,8 @@
 * A mission whose leg cuts through an exclusion zone is refused at upload (MAV_MISSION_INVALID,
   the leg named); a DO_REPOSITION whose straight way crosses it is DENIED.
 * A fence uploaded after a mission that now conflicts is accepted; the mission is flagged
-  (STATUSTEXT) and AUTO refused until a mission that goes round is uploaded.
+  (STATUSTEXT, again when FENCE_ENABLE is set to 1) and AUTO refused until a mission that goes
+  round is uploaded.
 * Home moved outside the fence: RTL refused, and a current pushing the boat to the edge gets
   HOLD instead of RTL as the fence action, with a STATUSTEXT saying why.
 """
@@ -73,6 +74,13 @@ async def test_legs_through_an_exclusion_zone_and_a_mission_flagged_by_a_new_fen
         assert ack.result == mav.MAV_RESULT_DENIED
         await run_until_done(h, why)
         assert vehicle.modes.current.number == ModeNumber.HOLD
+        # the fence disabled and enabled again (PARAM_SET): the conflict is told again
+        for enable in (0, 1):
+            gcs.send(mav.MAVLink_param_set_message(1, 1, b"FENCE_ENABLE", enable, mav.MAV_PARAM_TYPE_INT32))
+            await run_until_done(h, gcs.wait("PARAM_VALUE", lambda m: m.param_id == "FENCE_ENABLE", WAIT_S))
+            if enable == 0:
+                flagged = text(gcs, "Fence: mission conflicts")
+        await run_until_done(h, flagged)
 
         # the same mission uploaded now: refused, the leg named, the stored one kept
         why = text(gcs, "upload refused: leg 1-2")
