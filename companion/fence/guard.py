@@ -25,7 +25,7 @@ from companion.clock import Clock
 from companion.fence import legs
 from companion.fence.monitor import FenceCheck, FenceMonitor, check_fence
 from companion.fence.params import FenceAction
-from companion.fence.zones import Zone, fence_from_plan
+from companion.fence.zones import Zone, ZoneKind, fence_from_plan
 from companion.messages import FENCE_TOPIC, FenceState, ModeNumber, NavState, Severity
 from companion.mission.items import MissionType
 from companion.mission.route import LatLon, Legs
@@ -39,6 +39,12 @@ CHECK_PERIOD_S = 0.1
 
 def _zone_text(zone: Zone | None) -> str:
     return "fence" if zone is None else zone.describe()
+
+
+def _beyond(zone: Zone | None) -> str:
+    """Where a point the zone forbids is: "outside the inclusion polygon", "inside the exclusion circle"."""
+    side = "inside" if zone is not None and zone.kind is ZoneKind.EXCLUSION else "outside"
+    return f"{side} the {_zone_text(zone)}"
 
 
 class FenceGuard:
@@ -83,8 +89,8 @@ class FenceGuard:
         margin_m = self.params.get("FENCE_MARGIN")
         if clearance_m >= margin_m:
             return None
-        where = "outside" if clearance_m < 0 else "within FENCE_MARGIN of"
-        return f"{where} the {_zone_text(zone)} ({clearance_m:.0f} m)"
+        where = _beyond(zone) if clearance_m < 0 else f"within FENCE_MARGIN of the {_zone_text(zone)}"
+        return f"{where} ({clearance_m:.0f} m)"
 
     def legs_problem(self, legs_lat_lon: Legs, *, keep_margin: bool = True) -> tuple[int, str] | None:
         """The first (start, end) leg (lat, lon) that would leave an inclusion zone, cross an exclusion
@@ -111,7 +117,7 @@ class FenceGuard:
             return None
         clearance_m, zone = fence.clearance_at_m(home.lat_deg, home.lon_deg)
         if clearance_m < 0:
-            return f"home outside the {_zone_text(zone)} ({clearance_m:.0f} m)"
+            return f"home {_beyond(zone)} ({clearance_m:.0f} m)"
         nav = vehicle.nav()
         if nav is None:
             return None
@@ -126,7 +132,7 @@ class FenceGuard:
             return
         clearance_m, zone = fence.clearance_at_m(home_pos.lat_deg, home_pos.lon_deg)
         if clearance_m < 0:
-            self.vehicle.status(f"Fence: home outside the {_zone_text(zone)}: no RTL", Severity.WARNING)
+            self.vehicle.status(f"Fence: home {_beyond(zone)}: no RTL", Severity.WARNING)
 
     def _mode_check(self, vehicle: Vehicle, number: int) -> str | None:
         """RTL is refused while it would take the boat out of the fence (:meth:`home_problem`)."""
@@ -137,7 +143,7 @@ class FenceGuard:
         if nav is None or not self.enabled or self.monitor.fence.empty:
             return None
         clearance_m, zone = self.monitor.fence.clearance_at_m(nav.lat_deg, nav.lon_deg)
-        return f"vehicle outside the {_zone_text(zone)}" if clearance_m < 0 else None
+        return f"vehicle {_beyond(zone)}" if clearance_m < 0 else None
 
     # -- the pipeline stage -------------------------------------------------------------
     def step(self, nav: NavState) -> None:

@@ -136,7 +136,8 @@ def leg_clearances(zone: Zone, a: Array, b: Array) -> LegClearances:
 def _why(legs: LegClearances, i: int) -> str:
     what = legs.zone.describe()
     if legs.end_m[i] < 0.0:
-        return f"ends outside the {what} ({legs.end_m[i]:.0f} m)"
+        side = "inside" if legs.zone.kind is ZoneKind.EXCLUSION else "outside"
+        return f"ends {side} the {what} ({legs.end_m[i]:.0f} m)"
     if legs.start_m[i] < 0.0:
         return f"crosses the {what} {legs.crossings[i]} times"
     if legs.crossings[i]:

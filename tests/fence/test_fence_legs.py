@@ -66,7 +66,7 @@ def test_coming_back_in_crosses_once_and_the_end_must_be_allowed() -> None:
     assert leg_problem(f, (0.0, 150.0), (0.0, 0.0), 2.0) is None  # pushed out, sent back in
     assert leg_problem(f, (0.0, 0.0), (0.0, 150.0), 2.0) == "ends outside the inclusion polygon (-50 m)"
     assert leg_problem(f, (0.0, 0.0), (50.0, 0.0), 2.0, keep_margin=False) == \
-        "ends outside the exclusion polygon (-10 m)"
+        "ends inside the exclusion polygon (-10 m)"
     # a U-shaped inclusion entered through the notch's mouth and left again: crosses twice
     assert leg_problem(fence(U_SHAPE), (25.0, -5.0), (25.0, 35.0), 0.0) is not None
 
