@@ -4,7 +4,8 @@
   the leg named); a DO_REPOSITION whose straight way crosses it is DENIED.
 * A fence uploaded after a mission that now conflicts is accepted; the mission is flagged
   (STATUSTEXT, again when FENCE_ENABLE is set to 1) and AUTO refused until a mission that goes
-  round is uploaded.
+  round is uploaded.  A stored rally point in the new fence's rock is told; one uploaded there
+  afterwards is refused (INVALID_PARAM5_X).
 * Home moved outside the fence: RTL refused, and a current pushing the boat to the edge gets
   HOLD instead of RTL as the fence action, with a STATUSTEXT saying why.
 """
@@ -46,6 +47,11 @@ def mission(frame: LocalFrame, *points_ne: tuple[float, float]) -> list[MissionI
                                         for i, (n, e) in enumerate(points_ne)]
 
 
+def rally(frame: LocalFrame, north_m: float, east_m: float) -> list[MissionItem]:
+    item = MissionItem.at(0, mi.CMD_NAV_RALLY_POINT, *frame.to_lat_lon(north_m, east_m))
+    return [MissionItem(**{**item.to_dict(), "mission_type": MissionType.RALLY})]
+
+
 def text(gcs, needle: str):  # type: ignore[no-untyped-def]
     return asyncio.ensure_future(gcs.wait("STATUSTEXT", lambda m: needle in m.text, WAIT_S))
 
@@ -62,11 +68,15 @@ async def test_legs_through_an_exclusion_zone_and_a_mission_flagged_by_a_new_fen
         # a mission stored before the fence, then the fence: accepted, the mission flagged
         ack = await run_until_done(h, upload(gcs, through, 0))
         assert ack.type == mav.MAV_MISSION_ACCEPTED
+        assert (await run_until_done(h, upload(gcs, rally(frame, 50, 0), 2))).type == mav.MAV_MISSION_ACCEPTED
         flagged = text(gcs, "Fence: mission conflicts")
+        rally_told = text(gcs, "Fence: rally point 0: inside the")
         ack = await run_until_done(h, upload(gcs, fence_plan(frame), 1))
         assert ack.type == mav.MAV_MISSION_ACCEPTED
         flag = (await run_until_done(h, flagged)).text
         assert flag.startswith("Fence: mission conflicts: leg 1-2: crosses the")  # first chunk
+        await run_until_done(h, rally_told)
+        assert "Fence: rally point 0: inside the exclusion polygon (-10 m)" in texts
         assert (await run_until_done(h, gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1,
                                                     timeout_s=WAIT_S))).result == 0
         why = text(gcs, "AUTO: fence conflict: leg 1-2")
@@ -81,6 +91,11 @@ async def test_legs_through_an_exclusion_zone_and_a_mission_flagged_by_a_new_fen
             if enable == 0:
                 flagged = text(gcs, "Fence: mission conflicts")
         await run_until_done(h, flagged)
+
+        # a rally point in the rock uploaded now: refused
+        ack = await run_until_done(h, upload(gcs, rally(frame, 45, 0), 2))
+        assert ack.type == mav.MAV_MISSION_INVALID_PARAM5_X
+        assert texts[-1] == "Mission upload refused: rally point 0: inside the exclusion polygon (-5 m)"
 
         # the same mission uploaded now: refused, the leg named, the stored one kept
         why = text(gcs, "upload refused: leg 1-2")
