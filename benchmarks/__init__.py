@@ -8,6 +8,7 @@ and issues come from full runs (``usv bench``).
 BENCHMARKS: dict[str, str] = {
     "mavlink_codec": "benchmarks.mavlink_codec",
     "mavlink_link": "benchmarks.mavlink_link",
+    "fence_legs": "benchmarks.fence_legs",
     "ukf": "benchmarks.ukf",
     "identify": "benchmarks.identify",
     "sim_plant": "benchmarks.sim_plant",

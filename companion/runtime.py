@@ -28,6 +28,7 @@ from companion.estimation.service import (
     load_companion_ukf_settings,
 )
 from companion.fence.guard import FenceGuard
+from companion.fence.plans import FencePlanCheck
 from companion.hardware import HardwareIoService, HardwareLinks
 from companion.link.manager import LinkManager
 from companion.mavlink.commands import CommandRegistry
@@ -86,6 +87,8 @@ class Services:
     """Arming, home, targets, modes (stage 3 of the pipeline) and mission progress."""
     fence: FenceGuard
     """The geofence (stage 2b of the pipeline), target and pre-arm checks."""
+    fence_plans: FencePlanCheck
+    """The stored mission and rally points re-checked when the fence changes; AUTO refused on conflict."""
     nav_health: NavHealth
     """GPS-INS fault detection and the degraded action (stage 1 of the pipeline)."""
     pipeline: Pipeline
@@ -130,11 +133,12 @@ def build_companion(ctx: Context, hardware: HardwareLinks | None = None,
     # the MAVLink face and the hardware seam
     telemetry = Telemetry(ctx, vehicle, {s.msg_id: s.build for s in payloads.status_messages})
     validator = MissionValidator({a.command: ItemRule(a.needs_position, a.check) for a in actions.values()})
+    fence_plans = FencePlanCheck(params, vehicle, mission.store, validator.needs_position)
     mavlink = MavlinkService(ctx, links, vehicle, commands, telemetry, validator, servo_map)
     hardware_io = HardwareIoService(ctx, pipeline, hardware, payloads.sentences)
     return Services(ctx=ctx, payloads=payloads, links=links, commands=commands, estimator=estimator,
-                    control=control, vehicle=vehicle, fence=fence, nav_health=nav_health,
-                    pipeline=pipeline, mavlink=mavlink,
+                    control=control, vehicle=vehicle, fence=fence, fence_plans=fence_plans,
+                    nav_health=nav_health, pipeline=pipeline, mavlink=mavlink,
                     hardware=hardware_io)
 
 

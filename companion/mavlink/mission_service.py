@@ -40,7 +40,7 @@ from companion.link.endpoint import Link
 from companion.link.manager import LinkManager
 from companion.mavlink import telemetry
 from companion.messages import GuidedTarget, ModeNumber, Severity
-from companion.mission import convention
+from companion.mission import convention, route
 from companion.mission import validate as v
 from companion.mission.items import MissionItem, MissionType
 from companion.vehicle import Vehicle
@@ -210,7 +210,7 @@ class MissionService:
             vehicle.status("Guided target refused: not in GUIDED", Severity.WARNING)
             return
         problem = self.validator.validate_item(item.with_seq(0))
-        reason = None if problem is not None else vehicle.destination_problem(item.lat_deg, item.lon_deg)
+        reason = None if problem is not None else vehicle.target_problem(item.lat_deg, item.lon_deg)
         if problem is not None or reason is not None:
             code = problem.code if problem is not None else v.INVALID_PARAM5_X
             self._ack(link, peer, code, MissionType.MISSION)
@@ -246,8 +246,8 @@ class MissionService:
             return v.ItemProblem(v.INVALID, verdict.reason)
         home_item = verdict.convention is convention.Convention.HOME_PLACEHOLDER
         problem = self.validator.validate_plan(items, home_first=home_item)
-        if problem is None and mtype == MissionType.MISSION:
-            problem = self._destinations_problem(items[1:] if home_item else items)
+        if problem is None:
+            problem = self._destinations_problem(mtype, items[1:] if home_item else items)
         if problem is not None:
             return problem
         try:
@@ -260,15 +260,21 @@ class MissionService:
         self.vehicle.status(f"{kind.capitalize()} received: {len(items)} items{how}")
         return None
 
-    def _destinations_problem(self, items: list[MissionItem]) -> v.ItemProblem | None:
-        """The first mission item whose position the vehicle refuses (the geofence): INVALID_PARAM5_X,
-        the code of a position the item must not have."""
-        for item in items:
-            if self.validator.needs_position(item):
-                reason = self.vehicle.destination_problem(item.lat_deg, item.lon_deg)
-                if reason is not None:
-                    return v.ItemProblem(v.INVALID_PARAM5_X, f"item {item.seq}: {reason}")
-        return None
+    def _destinations_problem(self, mtype: int, items: list[MissionItem]) -> v.ItemProblem | None:
+        """The first mission item whose position the vehicle refuses (the geofence; INVALID_PARAM5_X,
+        the code of a position the item must not have), then the first leg between them (from home;
+        INVALID), :func:`companion.mission.route.route_problem`; rally points are checked as places."""
+        vehicle = self.vehicle
+        if mtype == MissionType.RALLY:
+            for item in items:
+                if (reason := vehicle.destination_problem(item.lat_deg, item.lon_deg)) is not None:
+                    return v.ItemProblem(v.INVALID_PARAM5_X, f"rally point {item.seq}: {reason}")
+            return None
+        if mtype != MissionType.MISSION:
+            return None
+        home = None if vehicle.home is None else (vehicle.home.lat_deg, vehicle.home.lon_deg)
+        return route.route_problem(items, home, self.validator.needs_position, vehicle.destination_problem,
+                                   vehicle.legs_problem)
 
     def _convention(self, mtype: int, items: list[MissionItem]) -> convention.Verdict:
         """How item 0 of a complete upload is to be read (always plain without home-first)."""

@@ -164,7 +164,7 @@ class MavlinkService(BaseService):
         if lat_lon_problem(lat_deg, lon_deg, zero_is_missing=True) is not None:
             self.vehicle.status("Position target refused: invalid position", Severity.WARNING)
             return
-        if (outside := self.vehicle.destination_problem(lat_deg, lon_deg)) is not None:
+        if (outside := self.vehicle.target_problem(lat_deg, lon_deg)) is not None:
             self.vehicle.status(f"Position target refused: {outside}", Severity.WARNING)
             return  # no answer in this protocol: the STATUSTEXT is the refusal
         speed = None
