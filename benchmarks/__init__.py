@@ -19,5 +19,6 @@ BENCHMARKS: dict[str, str] = {
     "campaign": "benchmarks.campaign",
     "fuzz": "benchmarks.fuzz",
     "lossy_link": "benchmarks.lossy_sweep",
+    "mqtt": "benchmarks.mqtt",
 }
 """Benchmark name -> module with ``run(quick: bool) -> dict``."""

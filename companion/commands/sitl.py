@@ -8,8 +8,15 @@ from pathlib import Path
 
 from companion.app import Application
 from companion.clock import SimClock
-from companion.commands.common import add_config_argument, add_sim_arguments, config_from_args, run_async
-from companion.config import Config
+from companion.commands.common import (
+    add_config_argument,
+    add_mqtt_argument,
+    add_sim_arguments,
+    config_from_args,
+    run_async,
+)
+from companion.config import Config, ConfigError
+from companion.mqtt.broker import DEFAULT_EMBEDDED_PORT, EmbeddedBroker
 from companion.statelock import StateDirLock
 
 HELP = "run the simulated boat together with the companion (software in the loop)"
@@ -21,6 +28,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--signing-key", type=Path, default=None, metavar="FILE",
                         help="MAVLink 2 signing key file (64 hex characters, chmod 600); sets "
                              "[security] signing_key_file")
+    add_mqtt_argument(parser)
+    parser.add_argument("--mqtt-embedded", type=int, nargs="?", const=DEFAULT_EMBEDDED_PORT, default=None,
+                        metavar="PORT",
+                        help="start an MQTT broker (amqtt) on 127.0.0.1:PORT (default "
+                             f"{DEFAULT_EMBEDDED_PORT}) and publish to it, unless --mqtt names another one")
     parser.add_argument("--duration", type=float, default=None,
                         help="stop after this many seconds of simulated time")
     parser.add_argument("--fault", action="append", default=[], metavar="KIND@START[-END]",
@@ -32,9 +44,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 async def run_sitl(config: Config, duration_s: float | None = None, truth_log: Path | None = None,
-                   faults: Sequence[str] = ()) -> None:
+                   faults: Sequence[str] = (), broker: EmbeddedBroker | None = None) -> None:
     with StateDirLock(config.state_dir()):  # one instance per state directory (exit 2 otherwise)
-        await _run_sitl(config, duration_s, truth_log, faults)
+        if broker is not None:
+            await broker.start()  # before the companion: a port in use is a one-line error (exit 2)
+        try:
+            await _run_sitl(config, duration_s, truth_log, faults)
+        finally:
+            if broker is not None:
+                await broker.stop()
 
 
 async def _run_sitl(config: Config, duration_s: float | None, truth_log: Path | None,
@@ -70,4 +88,11 @@ def run(args: argparse.Namespace) -> int:
 
         for text in args.fault:
             parse_fault(text)
-    return run_async(run_sitl(config, args.duration, args.truth_log, args.fault))
+    broker = None
+    if args.mqtt_embedded is not None:
+        if not 1 <= args.mqtt_embedded <= 65535:
+            raise ConfigError(f"--mqtt-embedded: invalid port {args.mqtt_embedded}; accepted: 1..65535")
+        broker = EmbeddedBroker(args.mqtt_embedded)
+        if not config["mqtt.url"]:
+            config = config.with_overrides({"mqtt.url": broker.url})
+    return run_async(run_sitl(config, args.duration, args.truth_log, args.fault, broker))
