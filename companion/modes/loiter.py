@@ -9,7 +9,10 @@ A water jet idles with thrust (the simulated boat creeps at about 0.7 m/s at idl
   holds under control (:class:`~companion.modes.navigation.CircleTask`, radius
   ``max(USV_TURN_RAD, LOIT_RADIUS - 0.5 m)``).
 
-It starts by keeping station and switches to orbiting after about 3 s (net, leaky count) of the
+With a water-current estimate (``host.water_current``, ``USV_HOLD_MODE`` 1) the choice is made
+at once from it (:func:`companion.modes.holding.hold_task`): bow into a current stronger than
+``USV_HOLD_CREEP``, else a drift-compensated orbit at ``USV_TURN_RAD``.  Without one it learns:
+it starts by keeping station and switches to orbiting after about 3 s (net, leaky count) of the
 creep signature: the jet idles, the bow is on the station heading (within 45 degrees) and the
 boat still makes headway over ground (more than 0.2 m/s), so the current cannot hold it back.
 Distance from the point is not evidence: a boat that must turn round into a strong current, or
@@ -26,6 +29,7 @@ import math
 from companion.guidance.geo import wrap_pi
 from companion.messages import ModeNumber, NavState
 from companion.modes.base import ModeOutput, StandardMode
+from companion.modes.holding import hold_task
 from companion.modes.host import ModeHost
 from companion.modes.navigation import CircleTask, NavMode, StationTask, param
 
@@ -52,7 +56,7 @@ class LoiterMode(NavMode):
         nav = host.nav()
         assert nav is not None  # requirements() checked the position estimate
         self.point = (nav.lat_deg, nav.lon_deg)
-        self.task = StationTask(host.params, self.point, nav.heading_rad)
+        self.task = hold_task(host, self.point, nav) or StationTask(host.params, self.point, nav.heading_rad)
         self._evidence_s = 0.0
 
     def _orbit_radius_m(self, host: ModeHost) -> float:

@@ -1,0 +1,187 @@
+"""Holding a point from the water-current estimate: the tasks LOITER, GUIDED and RTL run on
+their point (issue 14; guidance in :mod:`companion.guidance.holding`).
+
+:func:`hold_task` picks, from the host's current estimate at the moment it is called, either
+keeping station bow into the current (:class:`CurrentStationTask`, current stronger than
+``USV_HOLD_CREEP``) or a drift-compensated orbit at ``USV_TURN_RAD`` (:class:`OrbitTask`); it
+returns ``None`` without an estimate or with ``USV_HOLD_MODE`` 0, and the mode then holds as it
+did before (its own :class:`~companion.modes.navigation.StationTask`).  :func:`goto_task` is the
+leg GUIDED and RTL fly to the point: in a strong current it arrives from ``USV_HOLD_BRAKE`` metres
+downstream, bow into the current, so the boat brakes onto the point instead of overshooting it
+and looping back (a jet cannot turn without thrust, and turning round at the point let the current
+carry it 13-28 m past).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+from companion.control.target import ControlTarget
+from companion.guidance.geo import LocalFrame
+from companion.guidance.hold_params import HOLD_CURRENT, current_station_gains, orbit_gains
+from companion.guidance.holding import CurrentStationKeeper, DriftOrbit, HoldStrategy, pick_strategy
+from companion.messages import NavState
+from companion.modes.host import ModeHost
+from companion.modes.navigation import GotoTask
+from companion.params import ParamStore
+
+CurrentSource = Callable[[], tuple[float, float] | None]
+"""The latest current estimate (north, east m/s), ``None`` while there is none."""
+
+
+class _Held:
+    """The last current a task saw, so a briefly stale estimate does not stop it."""
+
+    def __init__(self, source: CurrentSource, initial_ne_mps: tuple[float, float]) -> None:
+        self.source = source
+        self.current_ne_mps = initial_ne_mps
+
+    def __call__(self) -> tuple[float, float]:
+        fresh = self.source()
+        if fresh is not None:
+            self.current_ne_mps = fresh
+        return self.current_ne_mps
+
+
+class CurrentStationTask:
+    """Keep station on ``point`` (lat, lon) bow into a known current."""
+
+    strategy = HoldStrategy.STATION
+
+    def __init__(self, params: ParamStore, point: tuple[float, float], heading_rad: float,
+                 current: CurrentSource, initial_ne_mps: tuple[float, float]) -> None:
+        self.frame = LocalFrame(*point)
+        self.point = point
+        self.current = _Held(current, initial_ne_mps)
+        self.keeper = CurrentStationKeeper((0.0, 0.0), heading_rad, current_station_gains(params))
+        self.distance_m = 0.0
+        self.cross_track_m = 0.0
+
+    def step(self, nav: NavState, dt_s: float) -> ControlTarget:
+        out = self.keeper.update(self.frame.to_ne(nav.lat_deg, nav.lon_deg), self.current(), dt_s)
+        self.distance_m = out.distance_m
+        return ControlTarget(out.heading_rad, out.surge_speed_mps, is_heading=True, hold_station=True)
+
+
+class OrbitTask:
+    """Circle ``point`` at the turning radius through a known (weak) current."""
+
+    strategy = HoldStrategy.ORBIT
+
+    def __init__(self, params: ParamStore, point: tuple[float, float], current: CurrentSource,
+                 initial_ne_mps: tuple[float, float], clockwise: bool = True) -> None:
+        self.frame = LocalFrame(*point)
+        self.point = point
+        self.current = _Held(current, initial_ne_mps)
+        self.orbit = DriftOrbit((0.0, 0.0), params.get("USV_TURN_RAD"), clockwise, orbit_gains(params))
+        self.radius_m = self.orbit.radius_m
+        self.distance_m = 0.0
+        self.radial_error_m = 0.0
+        self.cross_track_m = 0.0
+
+    def step(self, nav: NavState, dt_s: float) -> ControlTarget:
+        out = self.orbit.update(self.frame.to_ne(nav.lat_deg, nav.lon_deg), self.current(), dt_s,
+                                nav.heading_rad)
+        self.distance_m, self.radial_error_m = out.distance_m, out.radial_error_m
+        return ControlTarget(out.heading_rad, out.surge_speed_mps, out.turn_rate_radps, is_heading=True)
+
+
+def _current_source(host: ModeHost) -> CurrentSource:
+    def latest() -> tuple[float, float] | None:
+        est = host.water_current
+        return None if est is None else (est.north_mps, est.east_mps)
+    return latest
+
+
+def strategy(host: ModeHost) -> HoldStrategy:
+    """How the point will be held with the estimate of this moment (LEGACY: without one, or
+    ``USV_HOLD_MODE`` 0)."""
+    if int(host.params.get("USV_HOLD_MODE")) != HOLD_CURRENT:
+        return HoldStrategy.LEGACY
+    est = host.water_current
+    if est is None:
+        return HoldStrategy.LEGACY
+    return pick_strategy((est.north_mps, est.east_mps), est.confidence, host.params.get("USV_HOLD_CREEP"))
+
+
+def hold_task(host: ModeHost, point: tuple[float, float],
+              nav: NavState) -> CurrentStationTask | OrbitTask | None:
+    """The task that holds ``point`` (lat, lon) in the current of this moment, ``None``: LEGACY."""
+    kind = strategy(host)
+    est = host.water_current
+    if kind == HoldStrategy.LEGACY or est is None:
+        return None
+    current = (est.north_mps, est.east_mps)
+    if kind == HoldStrategy.STATION:
+        upstream = math.atan2(-est.east_mps, -est.north_mps)
+        heading = nav.heading_rad if math.cos(nav.heading_rad - upstream) > 0.0 else upstream
+        return CurrentStationTask(host.params, point, heading, _current_source(host), current)
+    return OrbitTask(host.params, point, _current_source(host), current)
+
+
+HANDOVER_FRACTION = 0.75
+"""The last leg hands over to station keeping this fraction of ``USV_HOLD_BRAKE`` from the point."""
+UPSTREAM_COS = 0.5
+"""A leg within 60 degrees of upstream already ends bow into the current: flown as it is."""
+
+
+class ApproachTask:
+    """Go to ``end`` (lat, lon) so as to arrive bow into a strong current: when the direct leg
+    does not point upstream, first to a point ``USV_HOLD_BRAKE`` metres downstream of ``end``
+    (the turn into the current happens there, where its drift carries the boat away from the
+    point, not past it), then up the current to ``end``.  :attr:`reached` as the last leg's."""
+
+    def __init__(self, params: ParamStore, start: tuple[float, float], end: tuple[float, float],
+                 speed_mps: float, current_ne_mps: tuple[float, float],
+                 accept_radius_m: float | None = None) -> None:
+        self.frame = LocalFrame(*end)
+        self.point = end
+        self.end = end
+        s_n, s_e = self.frame.to_ne(*start)
+        speed_c = math.hypot(*current_ne_mps)
+        up_n, up_e = -current_ne_mps[0] / speed_c, -current_ne_mps[1] / speed_c
+        leg = math.hypot(s_n, s_e)
+        points = [end]
+        if leg > 0.0 and (-s_n * up_n - s_e * up_e) / leg < UPSTREAM_COS:
+            back = params.get("USV_HOLD_BRAKE")
+            points.insert(0, self.frame.to_lat_lon(-up_n * back, -up_e * back))
+        self.legs = [GotoTask(params, start, points[0], speed_mps, accept_radius_m,
+                              next_point=points[1] if len(points) > 1 else None)]
+        if len(points) > 1:
+            self.legs.append(GotoTask(params, points[0], end, speed_mps, accept_radius_m,
+                                      follower=self.legs[0].follower))
+        self._leg = 0
+        self.handover_m = HANDOVER_FRACTION * params.get("USV_HOLD_BRAKE")
+        self.distance_m = math.inf
+        self.cross_track_m = 0.0
+
+    @property
+    def reached(self) -> bool:
+        """On the last leg (up the current) and within :data:`HANDOVER_FRACTION` of
+        ``USV_HOLD_BRAKE`` of the point: the station keeper's approach-speed law
+        (``USV_STN_P`` x distance) brakes the boat onto it from there."""
+        last = self.legs[-1]
+        return self._leg == len(self.legs) - 1 and (last.reached or self.distance_m <= self.handover_m)
+
+    def step(self, nav: NavState, dt_s: float) -> ControlTarget:
+        leg = self.legs[self._leg]
+        if leg.reached and self._leg < len(self.legs) - 1:
+            self._leg += 1
+            leg = self.legs[self._leg]
+        target = leg.step(nav, dt_s)
+        here = self.frame.to_ne(nav.lat_deg, nav.lon_deg)
+        self.distance_m = math.hypot(*here)
+        self.cross_track_m = leg.cross_track_m
+        return target
+
+
+def goto_task(host: ModeHost, start: tuple[float, float], end: tuple[float, float], speed_mps: float,
+              accept_radius_m: float | None = None) -> GotoTask | ApproachTask:
+    """The leg GUIDED/RTL fly to a point they will hold: in a current to be stemmed an
+    :class:`ApproachTask` (arrive bow into it), else the plain :class:`GotoTask`."""
+    est = host.water_current
+    if strategy(host) == HoldStrategy.STATION and est is not None:
+        current = (est.north_mps, est.east_mps)
+        return ApproachTask(host.params, start, end, speed_mps, current, accept_radius_m)
+    return GotoTask(host.params, start, end, speed_mps, accept_radius_m)
