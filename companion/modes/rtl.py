@@ -33,7 +33,9 @@ class RtlMode(NavMode):
     def update(self, host: ModeHost, nav: NavState) -> ModeOutput:
         task = self.task
         if isinstance(task, GotoTask | ApproachTask) and task.reached:
-            host.status("RTL: home reached, keeping station")
+            near = task.distance_m <= param(host.params, "WP_RADIUS")
+            host.status("RTL: home reached, keeping station" if near
+                        else f"RTL: {task.distance_m:.0f} m from home, bow into the current: braking onto it")
             self.task = hold_task(host, task.end, nav) or StationTask(host.params, task.end, nav.heading_rad)
         if self.task is not None:
             return self.run_task(host, nav, self.task)
