@@ -167,10 +167,11 @@ class DriftOrbit:
         d, phi = distance_bearing(pos_ne[0] - self.centre_ne[0], pos_ne[1] - self.centre_ne[1])
         e_r = d - big_r
         if d < 0.5 * big_r:
+            u_w = self.water_speed_mps(current_ne_mps)
+            cn_along = current_ne_mps[0] * math.cos(heading_rad) + current_ne_mps[1] * math.sin(heading_rad)
+            surge = u_w + cn_along
             if self._outward_heading_rad is None:
                 self._outward_heading_rad = wrap_2pi(heading_rad)
-            surge = self.water_speed_mps(current_ne_mps) + current_ne_mps[0] * math.cos(heading_rad) \
-                + current_ne_mps[1] * math.sin(heading_rad)
             return HoldOutput(self._outward_heading_rad, surge, 0.0, d, e_r)
         self._outward_heading_rad = None
         if abs(e_r) < big_r:  # on the circle: what remains is slip, not the approach

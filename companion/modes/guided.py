@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from companion.messages import GuidedTarget, ModeNumber, NavState
 from companion.modes.base import ModeOutput
-from companion.modes.holding import ApproachTask, goto_task, hold_task
+from companion.modes.holding import ApproachTask, BrakingGoto, goto_task, hold_task
 from companion.modes.host import ModeHost
 from companion.modes.navigation import CircleTask, GotoTask, NavMode, StationTask, wp_speed_mps
 
@@ -44,7 +44,8 @@ class GuidedMode(NavMode):
             speed = wp_speed_mps(params, target.speed_mps)
             self.task = goto_task(host, (nav.lat_deg, nav.lon_deg), (target.lat_deg, target.lon_deg), speed)
         task = self.task
-        if isinstance(task, GotoTask | ApproachTask) and task.reached and self._target is not None:
+        arriving = isinstance(task, GotoTask | ApproachTask | BrakingGoto) and task.reached
+        if arriving and self._target is not None:
             point = (self._target.lat_deg, self._target.lon_deg)
             if self._target.radius_m and self._target.radius_m > 0:
                 self.task = CircleTask(params, point, self._target.radius_m)

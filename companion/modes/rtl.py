@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from companion.messages import ModeNumber, NavState
 from companion.modes.base import ModeOutput, StandardMode
-from companion.modes.holding import ApproachTask, goto_task, hold_task
+from companion.modes.holding import ApproachTask, BrakingGoto, goto_task, hold_task
 from companion.modes.host import ModeHost
 from companion.modes.navigation import GotoTask, NavMode, StationTask, param, wp_speed_mps
 
@@ -32,7 +32,7 @@ class RtlMode(NavMode):
 
     def update(self, host: ModeHost, nav: NavState) -> ModeOutput:
         task = self.task
-        if isinstance(task, GotoTask | ApproachTask) and task.reached:
+        if isinstance(task, GotoTask | ApproachTask | BrakingGoto) and task.reached:
             near = task.distance_m <= param(host.params, "WP_RADIUS")
             host.status("RTL: home reached, keeping station" if near
                         else f"RTL: {task.distance_m:.0f} m from home, bow into the current: braking onto it")
