@@ -24,6 +24,14 @@ PARAMS: tuple[ParamDef, ...] = (
              "Speed through the water on the holding orbit (raised with the current so the crab stays "
              "steerable)."),
     ParamDef("USV_HOLD_ORB_K", 1.5, 0.1, 10.0, "", "Holding orbit: convergence gain onto the circle."),
+    ParamDef("USV_HOLD_ESTOP", 0, 0, 1, "",
+             "LOITER in slack water (estimated current below USV_HOLD_SLACK): 1 = stop the engine and "
+             "drift, restart and return when the drift reaches USV_HOLD_DRIFT, stop again on the point; "
+             "0 = orbit the point (default).", is_int=True, choices=((0, "orbit"), (1, "engine stop"))),
+    ParamDef("USV_HOLD_SLACK", 0.2, 0.0, 1.0, "m/s",
+             "Current below which LOITER may stop the engine (USV_HOLD_ESTOP 1)."),
+    ParamDef("USV_HOLD_DRIFT", 3.0, 1.0, 50.0, "m",
+             "Engine-stop station keeping: drift this far from the point before restarting to return."),
     ParamDef("USV_HOLD_BRAKE", 12.0, 0.0, 100.0, "m",
              "GUIDED/RTL in a current stronger than USV_HOLD_CREEP hand over from the leg to station "
              "keeping this far from the point, so the boat turns bow into the current and backs down "

@@ -221,3 +221,59 @@ def goto_task(host: ModeHost, start: tuple[float, float], end: tuple[float, floa
         along = (est.north_mps * leg_n + est.east_mps * leg_e) / leg_m
         return BrakingGoto(goto, max(0.5, host.params.get("USV_HOLD_ORB_SPD") + along))
     return goto
+
+
+STOP_WITHIN_M = 1.0
+"""Engine-stop holding: the return leg's acceptance radius (the engine stops there)."""
+RETURN_SPEED_MPS = 2.0
+STOP_SPEED_MPS = 0.8
+"""The return leg brakes to this at the point (returning with the station keeper carried the
+boat past it at 1.3-1.8 m/s and looped 4-7 m out)."""
+
+
+class EngineStopTask:
+    """Slack-water station keeping with the engine off (``USV_HOLD_ESTOP`` 1): drift until the
+    boat is ``USV_HOLD_DRIFT`` from the point, restart and go back along a braked leg
+    (:class:`BrakingGoto` at :data:`RETURN_SPEED_MPS`), stop the engine again when the leg
+    reaches the point (within :data:`STOP_WITHIN_M`, or past it).  :attr:`drifting` says whether
+    the engine is to be off now (the mode then asks for ignition off)."""
+
+    def __init__(self, params: ParamStore, point: tuple[float, float]) -> None:
+        self.params = params
+        self.frame, self.point = LocalFrame(*point), point
+        self.drift_m = params.get("USV_HOLD_DRIFT")
+        self.drifting = True
+        self.returning: BrakingGoto | None = None
+        self.restarts = 0
+        self.distance_m = 0.0
+        self.cross_track_m = 0.0
+
+    def update(self, nav: NavState) -> bool:
+        """Switch between drifting and returning for ``nav``; whether the engine is to be off."""
+        self.distance_m = math.hypot(*self.frame.to_ne(nav.lat_deg, nav.lon_deg))
+        if self.drifting and self.distance_m > self.drift_m:
+            self.drifting = False
+            self.restarts += 1
+            here = (nav.lat_deg, nav.lon_deg)
+            leg = GotoTask(self.params, here, self.point, RETURN_SPEED_MPS, STOP_WITHIN_M)
+            self.returning = BrakingGoto(leg, STOP_SPEED_MPS)
+        elif not self.drifting and self.returning is not None and self.returning.reached:
+            self.drifting = True
+        return self.drifting
+
+    def step(self, nav: NavState, dt_s: float) -> ControlTarget:
+        if self.returning is None:  # drifting: nothing to steer (the mode stops the engine)
+            return ControlTarget(nav.heading_rad, 0.0, is_heading=True)
+        target = self.returning.step(nav, dt_s)
+        self.cross_track_m = self.returning.cross_track_m
+        return target
+
+
+def engine_stop_task(host: ModeHost, point: tuple[float, float], nav: NavState) -> EngineStopTask | None:
+    """An :class:`EngineStopTask` when ``USV_HOLD_ESTOP`` is 1 and the estimate says slack water
+    (below ``USV_HOLD_SLACK``), else ``None``."""
+    params = host.params
+    est = host.water_current
+    if int(params.get("USV_HOLD_ESTOP")) != 1 or est is None or est.speed_mps >= params.get("USV_HOLD_SLACK"):
+        return None
+    return EngineStopTask(params, point)

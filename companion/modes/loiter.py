@@ -11,7 +11,9 @@ A water jet idles with thrust (the simulated boat creeps at about 0.7 m/s at idl
 
 With a water-current estimate (``host.water_current``, ``USV_HOLD_MODE`` 1) the choice is made
 at once from it (:func:`companion.modes.holding.hold_task`): bow into a current stronger than
-``USV_HOLD_CREEP``, else a drift-compensated orbit at ``USV_TURN_RAD``.  Without one it learns:
+``USV_HOLD_CREEP``, else a drift-compensated orbit at ``USV_TURN_RAD``; in slack water with
+``USV_HOLD_ESTOP`` 1 it stops the engine and drifts, restarting to return when the drift
+reaches ``USV_HOLD_DRIFT``.  Without one it learns:
 it starts by keeping station and switches to orbiting after about 3 s (net, leaky count) of the
 creep signature: the jet idles, the bow is on the station heading (within 45 degrees) and the
 boat still makes headway over ground (more than 0.2 m/s), so the current cannot hold it back.
@@ -26,10 +28,11 @@ from __future__ import annotations
 
 import math
 
+from companion.control.target import ControlRequest
 from companion.guidance.geo import wrap_pi
 from companion.messages import ModeNumber, NavState
 from companion.modes.base import ModeOutput, StandardMode
-from companion.modes.holding import hold_task
+from companion.modes.holding import EngineStopTask, engine_stop_task, hold_task
 from companion.modes.host import ModeHost
 from companion.modes.navigation import CircleTask, NavMode, StationTask, param
 
@@ -56,7 +59,8 @@ class LoiterMode(NavMode):
         nav = host.nav()
         assert nav is not None  # requirements() checked the position estimate
         self.point = (nav.lat_deg, nav.lon_deg)
-        self.task = hold_task(host, self.point, nav) or StationTask(host.params, self.point, nav.heading_rad)
+        self.task = (engine_stop_task(host, self.point, nav) or hold_task(host, self.point, nav)
+                     or StationTask(host.params, self.point, nav.heading_rad))
         self._evidence_s = 0.0
 
     def _orbit_radius_m(self, host: ModeHost) -> float:
@@ -66,6 +70,9 @@ class LoiterMode(NavMode):
     def update(self, host: ModeHost, nav: NavState) -> ModeOutput:
         dt = self.dt(nav)
         task = self.task
+        if isinstance(task, EngineStopTask) and task.update(nav):
+            self.run_task(host, nav, task, dt)  # telemetry target; the station keeper waits
+            return ControlRequest.idle(ignition_on=False)
         if isinstance(task, StationTask):
             # the jet idles bow on its station heading and still makes headway: too weak a current
             at_idle = host.control.mapper.throttle <= IDLE_THROTTLE
