@@ -32,7 +32,7 @@ from companion.control.target import ControlRequest
 from companion.guidance.geo import wrap_pi
 from companion.messages import ModeNumber, NavState
 from companion.modes.base import ModeOutput, StandardMode
-from companion.modes.holding import EngineStopTask, engine_stop_task, hold_task
+from companion.modes.holding import CurrentStationTask, EngineStopTask, OrbitTask, engine_stop_task, hold_task
 from companion.modes.host import ModeHost
 from companion.modes.navigation import CircleTask, NavMode, StationTask, param
 
@@ -73,13 +73,17 @@ class LoiterMode(NavMode):
         if isinstance(task, EngineStopTask) and task.update(nav):
             self.run_task(host, nav, task, dt)  # telemetry target; the station keeper waits
             return ControlRequest.idle(ignition_on=False)
-        if isinstance(task, StationTask):
-            # the jet idles bow on its station heading and still makes headway: too weak a current
+        if isinstance(task, StationTask | CurrentStationTask):
+            # the jet idles bow on its station heading and still makes headway: too weak a drift
+            # (with the estimate: wind against the current can cancel what the estimate says)
             at_idle = host.control.mapper.throttle <= IDLE_THROTTLE
             on_heading = abs(wrap_pi(nav.heading_rad - task.keeper.heading_rad)) < ON_HEADING_RAD
             creeping = at_idle and on_heading and nav.u_mps > CREEP_MPS
             if self._count(creeping, dt, ORBIT_AFTER_S):
-                self.task = CircleTask(host.params, self.point, self._orbit_radius_m(host))
+                if isinstance(task, CurrentStationTask):
+                    self.task = OrbitTask(host.params, self.point, task.current.source, task.current())
+                else:
+                    self.task = CircleTask(host.params, self.point, self._orbit_radius_m(host))
         elif isinstance(task, CircleTask):
             # pushed off the circle by more than its radius: the current is too strong to orbit
             failing = task.on_circle_since_s is not None and abs(task.radial_error_m) > task.radius_m
