@@ -12,12 +12,12 @@ circle meets the line through the centre across the current, on the side the boa
 
     c_hat = c / |c|,  p_hat = c_hat rotated 90 deg toward the boat
     hold    = centre + R p_hat
-    staging = hold + D c_hat                      (D down-current of the hold point)
+    abeam   = centre + (R + ABEAM_M) p_hat
 
-The boat runs to ``staging`` (abeam of the circle first when it comes from up-current), turns into
-the current there and follows the line ``staging -> hold``, which touches the circle at ``hold``
-only: it never crosses the circle's inside.  On the hold point the station keeper
-(:mod:`companion.guidance.station`) starts with its current estimate seeded from ``c`` (no
+The boat first runs to a point abeam of the circle, ``ABEAM_M`` outside it on the hold point's
+side (never across the circle's inside), and from there the station keeper
+(:mod:`companion.guidance.station`) ferries it across the current onto the hold point, bow into
+the current, its current estimate seeded from ``c`` (no U-turn onto a line and no
 exploratory loop while an integral learns it).
 """
 
@@ -27,15 +27,13 @@ import math
 
 Point = tuple[float, float]
 
-STAGING_M = 8.0
-"""D: how far down-current of the hold point the boat turns into the current."""
 ABEAM_M = 5.0
-"""Coming from up-current, the boat first passes this far outside the circle, abeam of it."""
+"""The boat first goes this far outside the circle, abeam of the hold point."""
 
 
 def stem_route(centre_ne: Point, radius_m: float, current_ne_mps: tuple[float, float],
                pos_ne: Point) -> list[Point]:
-    """Waypoints (north-east metres) from ``pos_ne`` to the hold point, which is the last one."""
+    """[abeam, hold] (north-east metres) for a boat at ``pos_ne``."""
     speed = math.hypot(*current_ne_mps)
     if speed <= 0.0:
         raise ValueError("stem_route needs a current")
@@ -44,9 +42,5 @@ def stem_route(centre_ne: Point, radius_m: float, current_ne_mps: tuple[float, f
     side = 1.0 if (-ce * rel_n + cn * rel_e) <= 0.0 else -1.0  # which side of the current line
     pn, pe = side * ce, -side * cn  # unit vector across the current, toward the boat's side
     hold = (centre_ne[0] + radius_m * pn, centre_ne[1] + radius_m * pe)
-    staging = (hold[0] + STAGING_M * cn, hold[1] + STAGING_M * ce)
-    route = [staging, hold]
-    if rel_n * cn + rel_e * ce < STAGING_M / 2.0:  # not yet well down-current: go round abeam
-        abeam = (centre_ne[0] + (radius_m + ABEAM_M) * pn, centre_ne[1] + (radius_m + ABEAM_M) * pe)
-        route.insert(0, abeam)
-    return route
+    abeam = (centre_ne[0] + (radius_m + ABEAM_M) * pn, centre_ne[1] + (radius_m + ABEAM_M) * pe)
+    return [abeam, hold]

@@ -169,13 +169,12 @@ class CircleTask:
 
 
 class StemHold:
-    """Keep station on the circle, bow into the current (:mod:`companion.guidance.stem`): legs to
-    the hold point, then the station keeper seeded with the observed current."""
+    """Keep station on the circle, bow into the current (:mod:`companion.guidance.stem`): a leg to
+    the abeam point, then the station keeper, seeded with the observed current, onto the hold point."""
 
     def __init__(self, params: ParamStore, radius_m: float, current_ne_mps: tuple[float, float],
                  pos_ne: tuple[float, float], heading_rad: float) -> None:
-        self.route = stem_route((0.0, 0.0), radius_m, current_ne_mps, pos_ne)
-        self.hold_ne = self.route[-1]
+        *self.route, self.hold_ne = stem_route((0.0, 0.0), radius_m, current_ne_mps, pos_ne)
         self.legs = LegNavigator(LosFollower(los_gains(params), LosType(int(params.get("USV_LOS_TYPE")))),
                                  leg_config(params, params.get("USV_CIRC_SPD") + math.hypot(*current_ne_mps),
                                             1.0))
