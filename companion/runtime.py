@@ -23,6 +23,7 @@ from companion.config import Config, parse_host_port, parse_serial
 from companion.control.system import ControlSystem
 from companion.estimation.service import (
     EstimatorStage,
+    load_companion_current_settings,
     load_companion_model,
     load_companion_ukf_backend,
     load_companion_ukf_settings,
@@ -108,7 +109,8 @@ def build_companion(ctx: Context, hardware: HardwareLinks | None = None,
     payloads.register_commands(commands)
     # the control side: model, estimator, controller families, modes, the vehicle they run on
     model = load_companion_model(config)
-    estimator = EstimatorStage(model, load_companion_ukf_settings(config), load_companion_ukf_backend(config))
+    estimator = EstimatorStage(model, load_companion_ukf_settings(config), load_companion_ukf_backend(config),
+                               load_companion_current_settings(config))
     control = ControlSystem(params, clock, bus, model)
     profile = str(config["vehicle.profile"])
     mission = MissionCursor(MissionStore(config.state_dir() / "missions"), home_placeholder_profile(profile))

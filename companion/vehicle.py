@@ -23,6 +23,7 @@ from companion.messages import (
     NAV_TOPIC,
     STATUS_TEXT_TOPIC,
     VEHICLE_STATUS_TOPIC,
+    CurrentEstimate,
     FixType,
     GuidedTarget,
     Home,
@@ -104,6 +105,11 @@ class Vehicle:
         return self.failsafe_reason is not None
 
     # -- navigation ---------------------------------------------------------------------
+    @property
+    def water_current(self) -> CurrentEstimate | None:
+        """The control system's fresh water-current estimate (:attr:`ControlSystem.water_current`)."""
+        return self.control.water_current
+
     def now_s(self) -> float:
         return self.ctx.clock.now_s()
 

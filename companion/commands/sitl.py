@@ -20,6 +20,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--signing-key", type=Path, default=None, metavar="FILE",
                         help="MAVLink 2 signing key file (64 hex characters, chmod 600); sets "
                              "[security] signing_key_file")
+    parser.add_argument("--status-every", type=float, default=10.0, metavar="SECONDS",
+                        help="print a status line (simulated boat, the companion's mode and its "
+                             "water-current estimate) every so many simulated seconds (0: never; default 10)")
     parser.add_argument("--duration", type=float, default=None,
                         help="stop after this many seconds of simulated time")
     parser.add_argument("--truth-log", type=Path, default=None, metavar="FILE.csv",
@@ -27,12 +30,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "(for benchmarks; see sim_bridge/truthlog.py)")
 
 
-async def run_sitl(config: Config, duration_s: float | None = None, truth_log: Path | None = None) -> None:
+async def run_sitl(config: Config, duration_s: float | None = None, truth_log: Path | None = None,
+                   status_every_s: float = 0.0) -> None:
     with StateDirLock(config.state_dir()):  # one instance per state directory (exit 2 otherwise)
-        await _run_sitl(config, duration_s, truth_log)
+        await _run_sitl(config, duration_s, truth_log, status_every_s)
 
 
-async def _run_sitl(config: Config, duration_s: float | None, truth_log: Path | None) -> None:
+async def _run_sitl(config: Config, duration_s: float | None, truth_log: Path | None,
+                    status_every_s: float) -> None:
     from companion.runtime import ReadyBanner, build_companion, build_context  # the whole stack: import late
     from sim_bridge.runtime import SimulatorService
 
@@ -46,6 +51,10 @@ async def _run_sitl(config: Config, duration_s: float | None, truth_log: Path | 
 
         app.add(TruthLog(sim.boat, clock, truth_log))
     app.add(ReadyBanner(ctx, "usv sitl: simulated boat + companion", services.links))
+    if status_every_s > 0.0:
+        from companion.commands.sitl_status import SitlStatus
+
+        app.add(SitlStatus(sim, ctx.bus, services.vehicle, status_every_s))
     if duration_s is not None:
         from sim_bridge.runtime import StopAfter
 
@@ -54,5 +63,9 @@ async def _run_sitl(config: Config, duration_s: float | None, truth_log: Path | 
 
 
 def run(args: argparse.Namespace) -> int:
+    if not args.status_every >= 0.0:
+        from companion.cli import UserError
+
+        raise UserError(f"--status-every must be 0 or more seconds, got {args.status_every:g}")
     config = config_from_args(args)
-    return run_async(run_sitl(config, args.duration, args.truth_log))
+    return run_async(run_sitl(config, args.duration, args.truth_log, args.status_every))

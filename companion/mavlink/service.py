@@ -123,8 +123,8 @@ class MavlinkService(BaseService):
                         log.exception("building message %d failed", msg_id)
                         cache[msg_id] = None
                 msg = cache[msg_id]
-                if msg is not None:
-                    link.send(msg)
+                for one in msg if isinstance(msg, tuple) else () if msg is None else (msg,):
+                    link.send(one)
 
     def _on_status_text(self, status: StatusText) -> None:
         text = status.text.encode("ascii", "replace")

@@ -21,7 +21,7 @@ from companion.angles import wrap_pi
 from companion.app import Context
 from companion.link import streams as s
 from companion.link.dialect import boat_module, mav
-from companion.mavlink import identity
+from companion.mavlink import current_report, identity
 from companion.messages import (
     ACTUATOR_CMD_TOPIC,
     MODEL_ERROR_TOPIC,
@@ -255,8 +255,11 @@ BUILDERS: dict[int, Builder] = {
     s.EXTENDED_SYS_STATE: extended_sys_state,
     s.CURRENT_MODE: current_mode_msg,
     s.USV_MODEL_STATUS: usv_model_status,
+    s.USV_CURRENT_ESTIMATE: lambda ctx, v: current_report.usv_current_estimate(ctx, time_boot_ms(ctx, v)),
+    s.NAMED_VALUE_FLOAT: lambda ctx, v: current_report.named_current_values(ctx, time_boot_ms(ctx, v)),
 }
-"""Message id -> builder for streamed and requested messages."""
+"""Message id -> builder for streamed and requested messages.  A builder returns one message, a
+tuple of messages sent together (NAMED_VALUE_FLOAT: one per name), or ``None``."""
 
 
 StatusBuilder = Callable[[int], Any]

@@ -231,7 +231,7 @@ class VehicleCommands:
             msg = self.telemetry.build(msg_id)
             if msg is None:  # e.g. HOME_POSITION before the first fix: clients ask again
                 return CommandResult.failed("")
-            msgs = [msg]
+            msgs = list(msg) if isinstance(msg, tuple) else [msg]
 
         def send() -> None:
             for m in msgs:
