@@ -37,6 +37,14 @@ PARAMS: tuple[ParamDef, ...] = (
              choices=((0, "measured crab"), (1, "current feed-forward"))),
     ParamDef("USV_WP_TURN_SPD", 2.0, 0.5, 10.0, "m/s",
              "Speed through corners sharper than 30 degrees (the boat slows down before them)."),
+    ParamDef("USV_WP_DRIFT", 1, 0, 1, "",
+             "Corner planning on the water-relative path: 1 = the turn at a corner starts earlier (later) by "
+             "the drift the estimated current gives across the new leg during the turn; 0 = calm-water "
+             "anticipation only.", is_int=True, choices=((0, "calm water"), (1, "current-aware"))),
+    ParamDef("USV_WP_UTURN", 1, 0, 1, "",
+             "U-turn onto a leg (heading more than 135 deg off it, e.g. AUTO started with the bow into the "
+             "current): 1 = turn toward the inside of the route (the next corner's side), 0 = whichever way "
+             "the heading error's sign says.", is_int=True, choices=((0, "shorter way"), (1, "inside"))),
     ParamDef("USV_WP_YAW_LAG", 2.5, 0.0, 10.0, "s",
              "Time the boat needs to build up its turn rate; turns at corners start this much earlier."),
     ParamDef("USV_CIRC_K", 1.0, 0.1, 20.0, "", "Point tracking: convergence gain onto the circle."),

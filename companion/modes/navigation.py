@@ -23,7 +23,7 @@ from companion.guidance.los import LosFollower, LosType
 from companion.guidance.params import circle_gains, leg_config, los_gains, station_gains
 from companion.guidance.station import StationKeeper
 from companion.guidance.stem import stem_route
-from companion.guidance.waypoints import LegNavigator
+from companion.guidance.waypoints import U_TURN_DONE_RAD, U_TURN_RAD, LegNavigator, u_turn_sign
 from companion.messages import NavState
 from companion.modes.base import Mode, NavTarget, requires_position
 from companion.modes.host import ModeHost
@@ -94,15 +94,35 @@ class GotoTask:
         self.reached = False
         self.distance_m = math.inf
         self.cross_track_m = 0.0
+        self._u_turn = 0.0
+
+    def _turn_onto_leg(self, target: ControlTarget, nav: NavState, leg_rad: float) -> ControlTarget:
+        """A U-turn onto the leg goes the way :func:`~companion.guidance.waypoints.u_turn_sign`
+        picks (toward the inside of the route), kept until the boat points within 90 deg."""
+        err = wrap_pi(target.course_rad - nav.heading_rad)
+        if self._u_turn == 0.0 and abs(err) > U_TURN_RAD and self.nav.inside_sign != 0.0:
+            self._u_turn = u_turn_sign(nav.heading_rad, leg_rad, self.nav.inside_sign)
+        elif abs(err) < U_TURN_DONE_RAD:
+            self._u_turn = 0.0
+        if self._u_turn == 0.0 or math.copysign(1.0, err) == self._u_turn:
+            return target
+        return replace(target, course_rad=wrap_2pi(nav.heading_rad + self._u_turn * U_TURN_RAD),
+                       is_heading=True, course_rate_radps=0.0)
 
     def step(self, nav: NavState, dt_s: float) -> ControlTarget:
         pos = self.frame.to_ne(nav.lat_deg, nav.lon_deg)
-        st = self.nav.update(pos, nav.speed_over_ground_mps, dt_s, course_over_ground(nav))
+        drift = self.drift if self.drift is not None and self.drift.converged else None
+        plan_current = drift.current_ne_mps if drift is not None and int(
+            self.params.get_or("USV_WP_DRIFT", 0.0)) == 1 else None
+        st = self.nav.update(pos, nav.speed_over_ground_mps, dt_s, course_over_ground(nav), plan_current)
         end = self.nav.end
         self.distance_m = math.hypot(end[0] - pos[0], end[1] - pos[1])
         self.cross_track_m = st.errors.cross_m
         self.reached = self.reached or st.reached
-        return crabbed(st.target, nav, crab_feed_forward(self.params, self.drift))
+        target = crabbed(st.target, nav, crab_feed_forward(self.params, self.drift))
+        if int(self.params.get_or("USV_WP_UTURN", 0.0)) == 1:
+            target = self._turn_onto_leg(target, nav, st.errors.path_angle_rad)
+        return target
 
 
 class StationTask:

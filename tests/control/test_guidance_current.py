@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from companion.guidance.current import CurrentObserver, crab_heading, water_speed_mps
 from companion.guidance.geo import LocalFrame
 from companion.guidance.stem import stem_route
+from companion.guidance.waypoints import drift_lead_m, u_turn_sign
 from companion.messages import NavState
 from companion.modes.navigation import CircleTask
 from companion.param_table import all_param_defs
@@ -92,3 +93,25 @@ def test_circle_item_holds_on_the_circle_only_in_a_current_it_cannot_circle_in(c
     again = CircleTask(params, point, 2.0, drift=obs)
     again.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
     assert again.stem is None
+
+
+@pytest.mark.parametrize(("heading_deg", "inside", "sign"), [(180.0, 1.0, -1.0), (180.0, -1.0, 1.0),
+                                                             (170.0, 1.0, -1.0), (190.0, -1.0, 1.0)])
+def test_u_turn_onto_a_leg_turns_toward_the_inside_of_the_route(heading_deg: float, inside: float,
+                                                                  sign: float) -> None:
+    # leg north; facing (about) south; the next corner turns right (inside = east) or left (west)
+    s = u_turn_sign(math.radians(heading_deg), 0.0, inside)
+    assert s == sign
+    # the turning circle's centre (at heading + s * 90 deg) lies on the inside of the leg
+    centre_east = math.sin(math.radians(heading_deg) + s * math.pi / 2)
+    assert centre_east * inside > 0
+
+
+def test_corner_starts_earlier_when_the_current_sets_the_boat_past_the_new_leg() -> None:
+    east_leg, south_leg = ((50.0, 0.0), (50.0, 50.0)), (0.0, 50.0)
+    # current toward east (along the old leg, across the new one, away from the route): turn earlier
+    assert drift_lead_m(*east_leg, south_leg, (0.0, 1.2), 3.0) == pytest.approx(3.6)
+    # the same current on the next corner (south leg -> west leg) is along the new leg: no change
+    assert drift_lead_m((50.0, 50.0), (0.0, 50.0), (0.0, 0.0), (0.0, 1.2), 3.0) == pytest.approx(0.0)
+    # current toward west on the first corner: it sets the boat back from the new leg, turn later
+    assert drift_lead_m(*east_leg, south_leg, (0.0, -0.5), 3.0) == pytest.approx(-1.5)
