@@ -35,10 +35,13 @@ log = logging.getLogger(__name__)
 
 TICK_S = 0.1
 """Sampler control period (clock time)."""
-PUMP_LEAD_S = 0.4
+PUMP_LEAD_S = 0.6
 """The pump stops when the boat, at its radial speed, would leave the acceptance circle within this
 time: one sampler tick plus the navigation sample's age plus the pump command's way to the payload
-(measured on ``usv bench nav``: without it the pump ran up to 6 cm outside the 2.5 m circle)."""
+(measured on ``usv bench nav``: without it the pump ran up to 6 cm outside the 2.5 m circle, with
+0.4 s up to 1 cm)."""
+PUMP_MARGIN_M = 0.05
+"""... and it also stops this close to the circle (GPS noise on the distance)."""
 SENSOR_STALE_S = 3.0
 
 
@@ -239,7 +242,8 @@ class WaterSampler:
                 dist = self._distance(nav, req)
                 inside = req.accept_radius_m is None or (
                     dist is not None and nav is not None
-                    and dist + PUMP_LEAD_S * max(0.0, self._radial_speed(nav, req)) <= req.accept_radius_m)
+                    and dist + PUMP_LEAD_S * max(0.0, self._radial_speed(nav, req)) + PUMP_MARGIN_M
+                    <= req.accept_radius_m)
                 if inside and dist is not None:
                     max_dist = dist if max_dist is None else max(max_dist, dist)
                 if inside != self.outputs.current.pump_on:
