@@ -209,6 +209,7 @@ class StemHold:
         self.keeper = StationKeeper(self.hold_ne, station_gains(params), heading_rad)
         self.keeper.water_ne = [-current_ne_mps[0], -current_ne_mps[1]]
         self.holding = False
+        self._turn_sign = 0.0
 
     @classmethod
     def when_needed(cls, params: ParamStore, drift: CurrentObserver | None, radius_m: float,
@@ -238,10 +239,19 @@ class StemHold:
                                         course_over_ground(nav)).target
             self.holding = True
         out = self.keeper.update(pos_ne, dt_s)
-        speed = out.surge_speed_mps
-        if abs(wrap_pi(out.heading_rad - nav.heading_rad)) > STEM_POWERED_TURN_RAD:
+        speed, heading = out.surge_speed_mps, out.heading_rad
+        err = wrap_pi(out.heading_rad - nav.heading_rad)
+        if abs(err) > STEM_POWERED_TURN_RAD:
             speed = max(speed, self.legs.cfg.turn_speed_mps)  # turn under power, not at idle
-        return ControlTarget(out.heading_rad, speed, is_heading=True, hold_station=True)
+        # a turn of about 180 deg keeps the direction it started in (near +-pi the sign of the
+        # heading error flips with every wave and the boat ran on straight, 60 m downstream)
+        if self._turn_sign == 0.0 and abs(err) > U_TURN_RAD:
+            self._turn_sign = math.copysign(1.0, err)
+        elif abs(err) < U_TURN_DONE_RAD:
+            self._turn_sign = 0.0
+        if self._turn_sign != 0.0 and math.copysign(1.0, err) != self._turn_sign:
+            heading = wrap_2pi(nav.heading_rad + self._turn_sign * U_TURN_RAD)
+        return ControlTarget(heading, speed, is_heading=True, hold_station=True)
 
 
 class Task(Protocol):
