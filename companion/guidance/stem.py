@@ -16,9 +16,9 @@ circle meets the line through the centre across the current, on the side the boa
 
 The boat first runs to a point abeam of the circle, ``ABEAM_M`` outside it on the hold point's
 side (never across the circle's inside), and from there the station keeper
-(:mod:`companion.guidance.station`) ferries it across the current onto the hold point, bow into
-the current, its current estimate seeded from ``c`` (no U-turn onto a line and no
-exploratory loop while an integral learns it).
+(:class:`companion.guidance.holding.CurrentStationKeeper`) ferries it across the current onto the
+hold point, bow within 70 deg of up-current, with ``c`` as its feed-forward (no exploratory loop
+while an integral learns it).
 """
 
 from __future__ import annotations

@@ -19,6 +19,8 @@ from companion.control.target import ControlRequest, ControlTarget
 from companion.guidance.circle import CircleTracker
 from companion.guidance.current import CurrentObserver, crab_heading, water_speed_mps
 from companion.guidance.geo import LocalFrame, distance_bearing, wrap_2pi, wrap_pi
+from companion.guidance.hold_params import current_station_gains
+from companion.guidance.holding import CurrentStationKeeper
 from companion.guidance.los import LosFollower, LosType
 from companion.guidance.params import circle_gains, leg_config, los_gains, station_gains
 from companion.guidance.station import StationKeeper
@@ -196,7 +198,9 @@ tens of metres downstream before the bow is into it (measured: 45 m in 1.2 m/s).
 
 class StemHold:
     """Keep station on the circle, bow into the current (:mod:`companion.guidance.stem`): a leg to
-    the abeam point, then the station keeper, seeded with the observed current, onto the hold point."""
+    the abeam point, then the current-fed station keeper
+    (:class:`~companion.guidance.holding.CurrentStationKeeper`, the observed current as its
+    feed-forward) onto the hold point."""
 
     def __init__(self, params: ParamStore, radius_m: float, current_ne_mps: tuple[float, float],
                  pos_ne: tuple[float, float], heading_rad: float) -> None:
@@ -206,8 +210,8 @@ class StemHold:
                                             1.0))
         self._leg = 0
         self._set_leg(pos_ne)
-        self.keeper = StationKeeper(self.hold_ne, station_gains(params), heading_rad)
-        self.keeper.water_ne = [-current_ne_mps[0], -current_ne_mps[1]]
+        self.current_ne_mps = current_ne_mps
+        self.keeper = CurrentStationKeeper(self.hold_ne, heading_rad, current_station_gains(params))
         self.holding = False
         self._turn_sign = 0.0
 
@@ -238,7 +242,7 @@ class StemHold:
                 return self.legs.update(pos_ne, nav.speed_over_ground_mps, dt_s,
                                         course_over_ground(nav)).target
             self.holding = True
-        out = self.keeper.update(pos_ne, dt_s)
+        out = self.keeper.update(pos_ne, self.current_ne_mps, dt_s)
         speed, heading = out.surge_speed_mps, out.heading_rad
         err = wrap_pi(out.heading_rad - nav.heading_rad)
         if abs(err) > STEM_POWERED_TURN_RAD:
