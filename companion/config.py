@@ -263,6 +263,11 @@ SETTINGS: tuple[Setting, ...] = (
             "Active-model UKF: 'chapter' (Eq. 5-11 on over-ground velocities, the default) or 'current' "
             "(water-relative model with the current as two more states, R from the sensor; publishes the "
             "current estimate on topic 'water_current').", choices=("chapter", "current")),
+    Setting("models.current_estimator", "ukf",
+            "Water-current estimate for guidance and the ground station when models.ukf is 'chapter': 'ukf' "
+            "(the default: the current-augmented filter runs beside the chapter's, for the current only; "
+            "the controller keeps the chapter's model error) or 'none' (no estimate: LOITER, GUIDED and "
+            "RTL then hold as before issue 14).", choices=("ukf", "none")),
     Setting("models.ukf_backend", "native",
             "Who computes the UKF: 'native' (compiled, a few microseconds per sample) or 'filterpy' "
             "(the same equations run by filterpy, about 100 times slower; a reference).",

@@ -23,10 +23,13 @@ from companion.config import Config, parse_host_port, parse_serial
 from companion.control.system import ControlSystem
 from companion.estimation.service import (
     EstimatorStage,
+    load_companion_current_settings,
     load_companion_model,
     load_companion_ukf_backend,
     load_companion_ukf_settings,
 )
+from companion.fence.guard import FenceGuard
+from companion.fence.plans import FencePlanCheck
 from companion.hardware import HardwareIoService, HardwareLinks
 from companion.link.manager import LinkManager
 from companion.mavlink.commands import CommandRegistry
@@ -42,6 +45,7 @@ from companion.mqtt.records import RecordFeed
 from companion.mqtt.service import MqttService
 from companion.mqtt.settings import mqtt_settings
 from companion.mqtt.snapshot import StateSnapshot
+from companion.navhealth.stage import NavHealth
 from companion.param_table import all_param_defs
 from companion.params import ParamStore
 from companion.payloads.launcher.device import RopeLauncher
@@ -90,6 +94,12 @@ class Services:
     """PID / active-model controller families and the actuator mapping (stage 4 of the pipeline)."""
     vehicle: Vehicle
     """Arming, home, targets, modes (stage 3 of the pipeline) and mission progress."""
+    fence: FenceGuard
+    """The geofence (stage 2b of the pipeline), target and pre-arm checks."""
+    fence_plans: FencePlanCheck
+    """The stored mission and rally points re-checked when the fence changes; AUTO refused on conflict."""
+    nav_health: NavHealth
+    """GPS-INS fault detection and the degraded action (stage 1 of the pipeline)."""
     pipeline: Pipeline
     """The 100 Hz path: sample -> estimator -> modes -> controller -> servo frame."""
     mavlink: MavlinkService
@@ -119,25 +129,31 @@ def build_companion(ctx: Context, hardware: HardwareLinks | None = None,
     payloads.register_commands(commands)
     # the control side: model, estimator, controller families, modes, the vehicle they run on
     model = load_companion_model(config)
-    estimator = EstimatorStage(model, load_companion_ukf_settings(config), load_companion_ukf_backend(config))
+    estimator = EstimatorStage(model, load_companion_ukf_settings(config), load_companion_ukf_backend(config),
+                               load_companion_current_settings(config))
     control = ControlSystem(params, clock, bus, model)
     profile = str(config["vehicle.profile"])
     mission = MissionCursor(MissionStore(config.state_dir() / "missions"), home_placeholder_profile(profile))
     vehicle = Vehicle(ctx, mission, ModeManager(MODE_CLASSES), control, actions)
+    fence = FenceGuard(params, clock, bus, vehicle, mission.store)
+    nav_health = NavHealth(params, clock, bus, vehicle)
     # the 100 Hz pipeline: sample -> estimator -> modes -> controller -> servo frame
     servo_map = ServoMap(params, payloads.servo_channels, overrides_us=vehicle.servo_overrides_us)
     output = ServoOutput(servo_map, clock, bus, LoopStats())
     pipeline = Pipeline(bus=bus, estimator=estimator, modes=vehicle.update_mode, controller=control,
-                        output=output, mode_failed=vehicle.mode_failed)
+                        output=output, mode_failed=vehicle.mode_failed, fence=fence.step,
+                        nav_health=nav_health)
     # the MAVLink face and the hardware seam
     telemetry = Telemetry(ctx, vehicle, {s.msg_id: s.build for s in payloads.status_messages})
     validator = MissionValidator({a.command: ItemRule(a.needs_position, a.check) for a in actions.values()})
+    fence_plans = FencePlanCheck(params, vehicle, mission.store, validator.needs_position)
     mavlink = MavlinkService(ctx, links, vehicle, commands, telemetry, validator, servo_map)
     hardware_io = HardwareIoService(ctx, pipeline, hardware, payloads.sentences)
     # MQTT dashboards, only when configured
     mqtt = build_mqtt(ctx, vehicle, links, payloads)
     return Services(ctx=ctx, payloads=payloads, links=links, commands=commands, estimator=estimator,
-                    control=control, vehicle=vehicle, pipeline=pipeline, mavlink=mavlink,
+                    control=control, vehicle=vehicle, fence=fence, fence_plans=fence_plans,
+                    nav_health=nav_health, pipeline=pipeline, mavlink=mavlink,
                     hardware=hardware_io, mqtt=mqtt)
 
 

@@ -22,28 +22,28 @@ from benchmarks.nav_grid import REPORTING_SEEDS, reduced_grid
 pytestmark = [pytest.mark.integration, pytest.mark.slow, pytest.mark.timeout(1200)]
 
 TODAY = "usv bench nav, main at 08b0103, worst of these cells [full grid]: "
+NOW = ("usv bench nav --quick, wip/path 79a807e..64b38ec (4 runs), with wip/hold merged (8dfe91f, 2 runs; "
+       "corner braking 0.25 m/s^2, 1 run): ")
+HOLD = "usv bench nav --quick, wip/hold (LOITER/GUIDED/RTL hold from the current estimate): "
 MISSED_TODAY = {
-    "loiter_max_m_current_above_creep":
-        TODAY + "11.7-12.2 m [12.2 m]: entered while the boat is still coming back from its GUIDED "
-                "arrival loop",
     "loiter_max_m_current_below_creep":
-        TODAY + "9.3 m [9.3 m]: two 7-9 m loops when it switches to orbiting, then an orbit 1.5-3.1 m "
-                "from the point",
-    "square_side_max_m": TODAY + "2.3-2.4 m [7.8 m]: corners, and the U-turn that starts the first leg",
-    "square_mid_leg_rms_m": TODAY + "0.45-0.46 m [0.76 m]",
-    "square_mid_leg_max_m": TODAY + "1.2-1.3 m [4.2 m]",
-    "circle_error_max_m": TODAY + "8.2-8.5 m [10.2 m]: every lap the current carries the boat 5-10 m "
-                                  "downstream",
-    "fill_distance_max_m": TODAY + "2.68 m [2.68 m]: the pump stops only after the boat has left the "
-                                   "2.5 m circle",
+        HOLD + "7.3-9.4 m in three flights (main at 08b0103: 9.3 m [9.3 m], two 7-9 m loops before it "
+               "switched to orbiting): orbits at once, but entered at speed while orbiting the GUIDED "
+               "point the boat swings out before it settles on the 2 m circle (1.7-2.7 m from the point "
+               "once settled)",
+    "square_side_max_m": NOW + "1.9-2.6 m; 5.0-6.2 m; 5.7 m (main: 2.3-2.4 m [7.8 m]): corners in "
+                               "1.2 m/s, the start of the first leg in 0.5 m/s (after the merge from "
+                               "RTL's orbit)",
+    "square_mid_leg_rms_m": NOW + "0.37-0.62 m; 0.98 m; 0.61 m (main: 0.45-0.46 m [0.76 m]): the bow swings "
+                                  "+-25 deg in beam seas on the legs across a 1.2 m/s current",
+    "square_mid_leg_max_m": NOW + "1.0-1.6 m; 3.3 m, the first corner; 1.6 m (main: 1.2-1.3 m [4.2 m])",
+    "circle_error_max_m": NOW + "2.8-5.3 m; 1.98-2.27 m; 1.45 m (main: 8.2-8.5 m [10.2 m]): in 1.2 m/s "
+                                "the item holds on the circle bow into the current (USV_CIRC_HOLD_C), "
+                                "0.5-2.0 m from it after the merge; in 0.5 m/s it circles, 1.0-2.3 m",
 }
-"""Targets today's product misses on these cells, with the figures measured (the xfail reasons)."""
-STRADDLING_TODAY = {
-    "sample_distance_max_m":
-        TODAY + "2.62 m against 2.6 m [1.8-2.65 m]: a bottle stops filling where the boat leaves the 2.5 m "
-                "circle, so the figure straddles the limit and a strict mark would flip at random "
-                "(fill_distance_max_m is the strict check)",
-}
+"""Targets today's product misses on these cells, with the figures measured (the xfail reasons).
+LOITER above idle creep holds since wip/hold: 0.65 m (main at 08b0103: 11.7-12.2 m)."""
+STRADDLING_TODAY: dict[str, str] = {}
 """Targets today's product meets or misses by a few centimetres depending on timing (non-strict xfail)."""
 
 

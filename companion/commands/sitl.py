@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
 from pathlib import Path
 
 from companion.app import Application
@@ -32,26 +33,34 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         metavar="PORT",
                         help="start an MQTT broker (amqtt) on 127.0.0.1:PORT (default "
                              f"{DEFAULT_EMBEDDED_PORT}) and publish to it, unless --mqtt names another one")
+    parser.add_argument("--status-every", type=float, default=10.0, metavar="SECONDS",
+                        help="print a status line (simulated boat, the companion's mode and its "
+                             "water-current estimate) every so many simulated seconds (0: never; default 10)")
     parser.add_argument("--duration", type=float, default=None,
                         help="stop after this many seconds of simulated time")
+    parser.add_argument("--fault", action="append", default=[], metavar="KIND@START[-END]",
+                        help="inject a GPS-INS fault in the simulator from START to END simulated seconds "
+                             "(gps_outage, silent, gyro_stuck, frozen, nan_velocity, imu_silent); repeatable")
     parser.add_argument("--truth-log", type=Path, default=None, metavar="FILE.csv",
                         help="write the simulated boat's true position (20 Hz of simulated time) to this CSV "
                              "(for benchmarks; see sim_bridge/truthlog.py)")
 
 
 async def run_sitl(config: Config, duration_s: float | None = None, truth_log: Path | None = None,
-                   broker: EmbeddedBroker | None = None) -> None:
+                   faults: Sequence[str] = (), broker: EmbeddedBroker | None = None,
+                   status_every_s: float = 0.0) -> None:
     with StateDirLock(config.state_dir()):  # one instance per state directory (exit 2 otherwise)
         if broker is not None:
             await broker.start()  # before the companion: a port in use is a one-line error (exit 2)
         try:
-            await _run_sitl(config, duration_s, truth_log)
+            await _run_sitl(config, duration_s, truth_log, faults, status_every_s)
         finally:
             if broker is not None:
                 await broker.stop()
 
 
-async def _run_sitl(config: Config, duration_s: float | None, truth_log: Path | None) -> None:
+async def _run_sitl(config: Config, duration_s: float | None, truth_log: Path | None,
+                    faults: Sequence[str], status_every_s: float) -> None:
     from companion.runtime import ReadyBanner, build_companion, build_context  # the whole stack: import late
     from sim_bridge.runtime import SimulatorService
 
@@ -65,6 +74,14 @@ async def _run_sitl(config: Config, duration_s: float | None, truth_log: Path | 
 
         app.add(TruthLog(sim.boat, clock, truth_log))
     app.add(ReadyBanner(ctx, "usv sitl: simulated boat + companion", services.links))
+    if faults:
+        from sim_bridge.faults import FaultSchedule, parse_fault
+
+        app.add(FaultSchedule(sim.boat.faults, clock, [parse_fault(text) for text in faults]))
+    if status_every_s > 0.0:
+        from companion.commands.sitl_status import SitlStatus
+
+        app.add(SitlStatus(sim, ctx.bus, services.vehicle, status_every_s))
     if duration_s is not None:
         from sim_bridge.runtime import StopAfter
 
@@ -73,7 +90,16 @@ async def _run_sitl(config: Config, duration_s: float | None, truth_log: Path | 
 
 
 def run(args: argparse.Namespace) -> int:
+    if not args.status_every >= 0.0:
+        from companion.cli import UserError
+
+        raise UserError(f"--status-every must be 0 or more seconds, got {args.status_every:g}")
     config = config_from_args(args)
+    if args.fault:  # refuse a bad schedule before anything starts
+        from sim_bridge.faults import parse_fault
+
+        for text in args.fault:
+            parse_fault(text)
     broker = None
     if args.mqtt_embedded is not None:
         if not 1 <= args.mqtt_embedded <= 65535:
@@ -81,4 +107,5 @@ def run(args: argparse.Namespace) -> int:
         broker = EmbeddedBroker(args.mqtt_embedded)
         if not config["mqtt.url"]:
             config = config.with_overrides({"mqtt.url": broker.url})
-    return run_async(run_sitl(config, args.duration, args.truth_log, broker))
+    return run_async(run_sitl(config, args.duration, args.truth_log, args.fault, broker,
+                              args.status_every))

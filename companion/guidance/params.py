@@ -29,12 +29,30 @@ PARAMS: tuple[ParamDef, ...] = (
              "(exp(-gamma y_e^2))."),
     ParamDef("USV_LOS_KI", 0.04, 0.0, 1.0, "1/m", "ILOS integral gain Ki."),
     ParamDef("USV_ALOS_GAMMA", 0.002, 0.0, 0.1, "rad/(m s)", "ALOS crab-angle adaptation gain gamma."),
+    ParamDef("USV_LOS_CFF", 0, 0, 1, "",
+             "Crab feed-forward: 1 = steer legs and circles at the heading that makes good the desired "
+             "course "
+             "through the current estimated from over-ground velocity and heading (companion/guidance/"
+             "current.py); 0 = the controllers remove the measured crab angle.", is_int=True,
+             choices=((0, "measured crab"), (1, "current feed-forward"))),
     ParamDef("USV_WP_TURN_SPD", 2.0, 0.5, 10.0, "m/s",
              "Speed through corners sharper than 30 degrees (the boat slows down before them)."),
+    ParamDef("USV_WP_DRIFT", 1, 0, 1, "",
+             "Corner planning on the water-relative path: 1 = the turn at a corner starts earlier (later) by "
+             "the drift the estimated current gives across the new leg during the turn; 0 = calm-water "
+             "anticipation only.", is_int=True, choices=((0, "calm water"), (1, "current-aware"))),
+    ParamDef("USV_WP_UTURN", 1, 0, 1, "",
+             "U-turn onto a leg (heading more than 135 deg off it, e.g. AUTO started with the bow into the "
+             "current): 1 = turn toward the inside of the route (the next corner's side), 0 = whichever way "
+             "the heading error's sign says.", is_int=True, choices=((0, "shorter way"), (1, "inside"))),
     ParamDef("USV_WP_YAW_LAG", 2.5, 0.0, 10.0, "s",
              "Time the boat needs to build up its turn rate; turns at corners start this much earlier."),
     ParamDef("USV_CIRC_K", 1.0, 0.1, 20.0, "", "Point tracking: convergence gain onto the circle."),
     ParamDef("USV_CIRC_KI", 0.0, 0.0, 1.0, "1/s", "Point tracking: integral gain on the radial error."),
+    ParamDef("USV_CIRC_HOLD_C", 0.7, 0.0, 5.0, "m/s",
+             "Circle items (sampling, LOITER_TURNS) in a current at least this strong (observed) keep "
+             "station on the circle, bow into the current, instead of circling (companion/guidance/stem.py). "
+             "0: always circle."),
     ParamDef("USV_CIRC_SPD", 1.6, 0.5, 10.0, "m/s", "Point tracking: speed while circling a point."),
     ParamDef("USV_TURN_RAD", 2.0, 0.5, 50.0, "m",
              "Smallest circle the boat holds under control (default and minimum radius of point tracking). "

@@ -33,8 +33,10 @@ class LegConfig:
     """Speed through corners of more than ``sharp_turn_rad``."""
     sharp_turn_rad: float = math.radians(30.0)
     turn_rate_max_radps: float = math.radians(45.0)
-    decel_mps2: float = 0.4
-    """Planned deceleration before a corner (sets where slowing starts)."""
+    decel_mps2: float = 0.25
+    """Planned deceleration before a corner (sets where slowing starts).  0.4 m/s^2 was more than the
+    jet (no reverse: drag only) makes at 4-5 m/s: in 1.2 m/s of cross current the boat came into the
+    first corner at 4.6 m/s instead of 2 and overshot it by 3.3 m (0.25: 2.0 m, usv bench nav)."""
     yaw_lag_s: float = 2.5
     """Time the boat needs to build up its turn rate; the turn starts this much earlier."""
 
@@ -51,6 +53,49 @@ def turn_angle_rad(p0: Point, p1: Point, p2: Point) -> float:
     a = math.atan2(p1[1] - p0[1], p1[0] - p0[0])
     b = math.atan2(p2[1] - p1[1], p2[0] - p1[0])
     return abs(wrap_pi(b - a))
+
+
+def drift_lead_m(p0: Point, p1: Point, p2: Point, current_ne_mps: tuple[float, float],
+                 turn_s: float) -> float:
+    """Extra turn anticipation (m) at ``p1`` for the drift of a turn lasting ``turn_s`` in a current.
+
+    The water-relative turn ends on the new leg when the start of the turn is moved back along the
+    old leg (unit ``a``) by the drift across the new leg (normal ``m`` with ``a . m > 0``)::
+
+        dL = (c . m) T / (a . m)
+
+    positive (turn earlier) when the current sets the boat past the new leg, negative when it sets
+    it back; the sum with the calm-water lead is kept >= 0 by the caller.
+    """
+    an, ae = p1[0] - p0[0], p1[1] - p0[1]
+    bn, be = p2[0] - p1[0], p2[1] - p1[1]
+    la, lb = math.hypot(an, ae), math.hypot(bn, be)
+    if la < 1e-9 or lb < 1e-9:
+        return 0.0
+    an, ae, bn, be = an / la, ae / la, bn / lb, be / lb
+    mn, me = -be, bn  # normal of the new leg
+    a_m = an * mn + ae * me
+    if abs(a_m) < 0.2:  # (nearly) straight on: no corner to plan
+        return 0.0
+    return (current_ne_mps[0] * mn + current_ne_mps[1] * me) * turn_s / a_m
+
+
+U_TURN_RAD = math.radians(135.0)
+"""A heading error beyond this is a U-turn: its direction is chosen, not left to the sign of noise."""
+U_TURN_DONE_RAD = math.radians(90.0)
+"""The chosen direction is kept until the heading error is below this."""
+
+
+def u_turn_sign(heading_rad: float, leg_rad: float, inside_sign: float) -> float:
+    """Direction of a U-turn onto a leg (+1 starboard, -1 port): the one whose turning circle lies
+    on the ``inside_sign`` side of the leg (+1 right of it, where the next corner turns right).
+
+    A U-turn sets the boat one turning diameter beside the line (a jet cannot turn on the spot); on
+    the inside of the route that offset lies toward the legs to come, not out into open water.  The
+    centre of the turning circle is at bearing ``psi + s pi/2``; the inside at ``leg + inside pi/2``.
+    """
+    right = math.cos(heading_rad + 0.5 * math.pi - leg_rad - inside_sign * 0.5 * math.pi)
+    return 1.0 if right >= 0.0 else -1.0
 
 
 class LegNavigator:
@@ -70,9 +115,23 @@ class LegNavigator:
             self.cfg = replace(self.cfg, speed_mps=speed_mps)
         self.los.set_leg(start, end)
 
-    def _corner(self, speed_mps: float | None = None) -> tuple[float, float]:
+    @property
+    def inside_sign(self) -> float:
+        """+1 when the corner at the end of this leg turns right (starboard), -1 left, 0 none."""
+        if self.next_point is None:
+            return 0.0
+        a = math.atan2(self.end[1] - self.start[1], self.end[0] - self.start[0])
+        b = math.atan2(self.next_point[1] - self.end[1], self.next_point[0] - self.end[0])
+        turn = wrap_pi(b - a)
+        return 0.0 if abs(turn) < 1e-6 else math.copysign(1.0, turn)
+
+    def _corner(self, speed_mps: float | None = None,
+                current_ne_mps: tuple[float, float] | None = None) -> tuple[float, float]:
         """(speed through the coming corner, anticipation distance before it); the turn radius is
-        sized for ``speed_mps`` (the measured speed over ground) when that is above the corner speed."""
+        sized for ``speed_mps`` (the measured speed over ground) when that is above the corner speed.
+        With ``current_ne_mps`` the turn is planned on the water-relative path: the current sets
+        the boat ``c T`` during the turn of duration ``T``, so the turn starts earlier (or later) by
+        the part of that drift across the new leg (:func:`drift_lead_m`)."""
         c = self.cfg
         if self.next_point is None:
             return c.speed_mps, 0.0
@@ -81,12 +140,18 @@ class LegNavigator:
             return c.speed_mps, 0.0
         v = min(c.speed_mps, c.turn_speed_mps)
         radius = max(v, speed_mps or 0.0) / c.turn_rate_max_radps
-        return v, radius * math.tan(0.5 * min(turn, math.radians(150.0))) + v * c.yaw_lag_s * turn / math.pi
+        lead = radius * math.tan(0.5 * min(turn, math.radians(150.0))) + v * c.yaw_lag_s * turn / math.pi
+        if current_ne_mps is not None:
+            turn_s = turn / c.turn_rate_max_radps + c.yaw_lag_s * turn / math.pi
+            lead = max(0.0, lead + drift_lead_m(self.start, self.end, self.next_point, current_ne_mps,
+                                                turn_s))
+        return v, lead
 
     def update(self, pos_ne: Point, speed_mps: float, dt_s: float,
-               course_rad: float | None = None) -> LegStep:
+               course_rad: float | None = None, current_ne_mps: tuple[float, float] | None = None) -> LegStep:
         """One step; ``course_rad`` (course over ground) keeps the corner speed until the boat
-        points along the new leg, so it does not accelerate out of the turn."""
+        points along the new leg, so it does not accelerate out of the turn; ``current_ne_mps``
+        (estimated current) plans the corner on the water-relative path."""
         c = self.cfg
         out = self.los.update(pos_ne, speed_mps, dt_s)
         err = out.errors
@@ -102,6 +167,6 @@ class LegNavigator:
             speed = min(speed, c.turn_speed_mps)
         dist_end = math.hypot(pos_ne[0] - self.end[0], pos_ne[1] - self.end[1])
         if self.next_point is not None:
-            lead = self._corner(speed_mps)[1]  # switch for the speed the boat has, not the planned one
+            lead = self._corner(speed_mps, current_ne_mps)[1]  # switch for the speed the boat has
         reached = remaining <= lead or dist_end <= c.accept_radius_m
         return LegStep(ControlTarget(out.course_rad, speed, out.course_rate_radps), err, reached)

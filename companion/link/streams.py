@@ -34,6 +34,9 @@ EXTENDED_SYS_STATE = mav.MAVLINK_MSG_ID_EXTENDED_SYS_STATE
 AVAILABLE_MODES = mav.MAVLINK_MSG_ID_AVAILABLE_MODES
 CURRENT_MODE = mav.MAVLINK_MSG_ID_CURRENT_MODE
 USV_MODEL_STATUS = usv.MAVLINK_MSG_ID_USV_MODEL_STATUS
+FENCE_STATUS = mav.MAVLINK_MSG_ID_FENCE_STATUS
+USV_CURRENT_ESTIMATE = usv.MAVLINK_MSG_ID_USV_CURRENT_ESTIMATE
+NAMED_VALUE_FLOAT = mav.MAVLINK_MSG_ID_NAMED_VALUE_FLOAT
 
 MAX_RATE_HZ = 50.0
 """Highest stream rate a link accepts (the scheduler never wakes more often than this)."""
@@ -56,6 +59,9 @@ DEFAULT_RATES_HZ: dict[int, float] = {
     EXTENDED_SYS_STATE: 1.0,
     CURRENT_MODE: 1.0,
     USV_MODEL_STATUS: 1.0,
+    FENCE_STATUS: 1.0,
+    USV_CURRENT_ESTIMATE: 1.0,
+    NAMED_VALUE_FLOAT: 1.0,
 }
 """Rates every new link starts with (roughly ArduPilot's SRx defaults for a telemetry radio);
 payloads add their status messages (:class:`~companion.link.manager.LinkManager`)."""
@@ -64,13 +70,14 @@ payloads add their status messages (:class:`~companion.link.manager.LinkManager`
 DATA_STREAM_GROUPS: dict[int, tuple[int, ...]] = {
     mav.MAV_DATA_STREAM_RAW_SENSORS: (),  # no raw IMU on this vehicle
     mav.MAV_DATA_STREAM_EXTENDED_STATUS: (SYS_STATUS, MISSION_CURRENT, GPS_RAW_INT, NAV_CONTROLLER_OUTPUT,
-                                          POSITION_TARGET_GLOBAL_INT),
+                                          POSITION_TARGET_GLOBAL_INT, FENCE_STATUS),
     mav.MAV_DATA_STREAM_RC_CHANNELS: (SERVO_OUTPUT_RAW, RC_CHANNELS),
     mav.MAV_DATA_STREAM_RAW_CONTROLLER: (),
     mav.MAV_DATA_STREAM_POSITION: (GLOBAL_POSITION_INT,),
     mav.MAV_DATA_STREAM_EXTRA1: (ATTITUDE,),
     mav.MAV_DATA_STREAM_EXTRA2: (VFR_HUD,),
-    mav.MAV_DATA_STREAM_EXTRA3: (SYSTEM_TIME, BATTERY_STATUS, EXTENDED_SYS_STATE, USV_MODEL_STATUS),
+    mav.MAV_DATA_STREAM_EXTRA3: (SYSTEM_TIME, BATTERY_STATUS, EXTENDED_SYS_STATE, USV_MODEL_STATUS,
+                                  USV_CURRENT_ESTIMATE, NAMED_VALUE_FLOAT),
 }
 DATA_STREAM_ALL = mav.MAV_DATA_STREAM_ALL
 

@@ -65,7 +65,7 @@ class AutoMode(NavMode):
         assert nav is not None
         # no crab estimate carried in from an earlier AUTO run
         self.run = AutoRun(host, self.actions(host), speed_override_mps=host.speed_override_mps,
-                           last_point=(nav.lat_deg, nav.lon_deg))
+                           last_point=(nav.lat_deg, nav.lon_deg), drift=self.drift)
         self._start(self.run, nav, host.mission.current_seq)
 
     def exit(self, host: ModeHost) -> None:

@@ -25,6 +25,7 @@ import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
+from companion.guidance.current import CurrentObserver
 from companion.messages import NavState, Severity
 from companion.mission import items as mi
 from companion.mission.items import MissionItem
@@ -72,6 +73,8 @@ class AutoRun:
     last_point: tuple[float, float] | None = None
     """Where the last positional item was (start of the next leg)."""
     jumps_done: dict[int, int] = field(default_factory=dict)
+    drift: CurrentObserver | None = None
+    """The vehicle's current observer (crab feed-forward of legs and circles)."""
 
     def navigates(self, command: int) -> bool:
         action = self.actions.get(command)
@@ -148,7 +151,8 @@ class NavItem(ItemTask):
         if math.dist(start, here) * 111_000 > LEG_RESTART_M:  # knocked far off the old leg
             start = here
         carried = run.task.follower if isinstance(run.task, GotoTask) else None  # last leg's crab estimate
-        run.task = GotoTask(params, start, target, speed, accept_radius_m, next_point, follower=carried)
+        run.task = GotoTask(params, start, target, speed, accept_radius_m, next_point, follower=carried,
+                            drift=run.drift)
         run.phase = Phase.GOTO
 
     def step(self, nav: NavState) -> bool:
@@ -207,7 +211,7 @@ class LoiterItem(NavItem):
     def arrive(self, nav: NavState) -> bool:
         params, p3 = self.run.host.params, self.item.param3
         if abs(p3) > 0:
-            self.run.task = CircleTask(params, self.point, abs(p3), clockwise=p3 > 0)
+            self.run.task = CircleTask(params, self.point, abs(p3), clockwise=p3 > 0, drift=self.run.drift)
         else:
             self.run.task = StationTask(params, self.point, nav.heading_rad)
         self.run.phase = Phase.LOITER

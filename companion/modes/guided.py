@@ -2,7 +2,9 @@
 
 The target is the host's ``guided_target`` (set by the MAVLink services).  The boat follows the leg
 from where it was when the target arrived to the target at WP_SPEED (or the target's speed),
-then keeps station on it; a target with a radius (DO_REPOSITION param3) is circled instead.
+then holds it (:mod:`companion.modes.holding`: bow into a strong current, arriving from
+downstream; a drift-compensated orbit in a weak one; without a current estimate the station
+keeper); a target with a radius (DO_REPOSITION param3) is circled instead.
 Without a target the boat keeps station where GUIDED was entered.
 """
 
@@ -10,6 +12,7 @@ from __future__ import annotations
 
 from companion.messages import GuidedTarget, ModeNumber, NavState
 from companion.modes.base import ModeOutput
+from companion.modes.holding import ApproachTask, BrakingGoto, goto_task, hold_task
 from companion.modes.host import ModeHost
 from companion.modes.navigation import CircleTask, GotoTask, NavMode, StationTask, wp_speed_mps
 
@@ -30,7 +33,8 @@ class GuidedMode(NavMode):
         nav = host.nav()
         assert nav is not None
         self._target = None
-        self.task = StationTask(host.params, (nav.lat_deg, nav.lon_deg), nav.heading_rad)
+        here = (nav.lat_deg, nav.lon_deg)
+        self.task = hold_task(host, here, nav) or StationTask(host.params, here, nav.heading_rad)
 
     def update(self, host: ModeHost, nav: NavState) -> ModeOutput:
         params = host.params
@@ -38,14 +42,15 @@ class GuidedMode(NavMode):
         if target is not None and target is not self._target:
             self._target = target
             speed = wp_speed_mps(params, target.speed_mps)
-            self.task = GotoTask(params, (nav.lat_deg, nav.lon_deg), (target.lat_deg, target.lon_deg), speed)
+            self.task = goto_task(host, (nav.lat_deg, nav.lon_deg), (target.lat_deg, target.lon_deg), speed)
         task = self.task
-        if isinstance(task, GotoTask) and task.reached and self._target is not None:
+        arriving = isinstance(task, GotoTask | ApproachTask | BrakingGoto) and task.reached
+        if arriving and self._target is not None:
             point = (self._target.lat_deg, self._target.lon_deg)
             if self._target.radius_m and self._target.radius_m > 0:
                 self.task = CircleTask(params, point, self._target.radius_m)
             else:
-                self.task = StationTask(params, point, nav.heading_rad)
+                self.task = hold_task(host, point, nav) or StationTask(params, point, nav.heading_rad)
         if self.task is not None:
             return self.run_task(host, nav, self.task)
         return None

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Protocol
 
 from companion.control.manual_input import PilotInput
 from companion.control.system import ControlSystem
-from companion.messages import GuidedTarget, Home, NavState, Severity
+from companion.messages import CurrentEstimate, GuidedTarget, Home, NavState, Severity
 from companion.mission.cursor import MissionCursor
 from companion.params import ParamStore
 
@@ -60,6 +60,14 @@ class ModeHost(Protocol):
     @property
     def speed_override_mps(self) -> float | None:
         """DO_CHANGE_SPEED from the ground station (``None``: none)."""
+        ...
+
+    @property
+    def water_current(self) -> CurrentEstimate | None:
+        """The estimator's water current (earth frame: ``north_mps``/``east_mps``, ``speed_mps``,
+        ``toward_rad`` clockwise from north, ``confidence`` 0..1), ``None`` when there is none or
+        it is stale (the chapter filter estimates no current).  Guidance uses it to pick how to
+        hold a point (bow into the current, or orbit) and to brake on arrival."""
         ...
 
     def nav(self) -> NavState | None:

@@ -9,7 +9,12 @@ A water jet idles with thrust (the simulated boat creeps at about 0.7 m/s at idl
   holds under control (:class:`~companion.modes.navigation.CircleTask`, radius
   ``max(USV_TURN_RAD, LOIT_RADIUS - 0.5 m)``).
 
-It starts by keeping station and switches to orbiting after about 3 s (net, leaky count) of the
+With a water-current estimate (``host.water_current``, ``USV_HOLD_MODE`` 1) the choice is made
+at once from it (:func:`companion.modes.holding.hold_task`): bow into a current stronger than
+``USV_HOLD_CREEP``, else a drift-compensated orbit at ``USV_TURN_RAD``; in slack water with
+``USV_HOLD_ESTOP`` 1 it stops the engine and drifts, restarting to return when the drift
+reaches ``USV_HOLD_DRIFT``.  Without one it learns:
+it starts by keeping station and switches to orbiting after about 3 s (net, leaky count) of the
 creep signature: the jet idles, the bow is on the station heading (within 45 degrees) and the
 boat still makes headway over ground (more than 0.2 m/s), so the current cannot hold it back.
 Distance from the point is not evidence: a boat that must turn round into a strong current, or
@@ -23,9 +28,11 @@ from __future__ import annotations
 
 import math
 
+from companion.control.target import ControlRequest
 from companion.guidance.geo import wrap_pi
 from companion.messages import ModeNumber, NavState
 from companion.modes.base import ModeOutput, StandardMode
+from companion.modes.holding import CurrentStationTask, EngineStopTask, OrbitTask, engine_stop_task, hold_task
 from companion.modes.host import ModeHost
 from companion.modes.navigation import CircleTask, NavMode, StationTask, param
 
@@ -52,7 +59,8 @@ class LoiterMode(NavMode):
         nav = host.nav()
         assert nav is not None  # requirements() checked the position estimate
         self.point = (nav.lat_deg, nav.lon_deg)
-        self.task = StationTask(host.params, self.point, nav.heading_rad)
+        self.task = (engine_stop_task(host, self.point, nav) or hold_task(host, self.point, nav)
+                     or StationTask(host.params, self.point, nav.heading_rad))
         self._evidence_s = 0.0
 
     def _orbit_radius_m(self, host: ModeHost) -> float:
@@ -62,13 +70,20 @@ class LoiterMode(NavMode):
     def update(self, host: ModeHost, nav: NavState) -> ModeOutput:
         dt = self.dt(nav)
         task = self.task
-        if isinstance(task, StationTask):
-            # the jet idles bow on its station heading and still makes headway: too weak a current
+        if isinstance(task, EngineStopTask) and task.update(nav):
+            self.run_task(host, nav, task, dt)  # telemetry target; the station keeper waits
+            return ControlRequest.idle(ignition_on=False)
+        if isinstance(task, StationTask | CurrentStationTask):
+            # the jet idles bow on its station heading and still makes headway: too weak a drift
+            # (with the estimate: wind against the current can cancel what the estimate says)
             at_idle = host.control.mapper.throttle <= IDLE_THROTTLE
             on_heading = abs(wrap_pi(nav.heading_rad - task.keeper.heading_rad)) < ON_HEADING_RAD
             creeping = at_idle and on_heading and nav.u_mps > CREEP_MPS
             if self._count(creeping, dt, ORBIT_AFTER_S):
-                self.task = CircleTask(host.params, self.point, self._orbit_radius_m(host))
+                if isinstance(task, CurrentStationTask):
+                    self.task = OrbitTask(host.params, self.point, task.current.source, task.current())
+                else:
+                    self.task = CircleTask(host.params, self.point, self._orbit_radius_m(host))
         elif isinstance(task, CircleTask):
             # pushed off the circle by more than its radius: the current is too strong to orbit
             failing = task.on_circle_since_s is not None and abs(task.radial_error_m) > task.radius_m

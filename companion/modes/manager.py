@@ -14,6 +14,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 
+from companion.guidance.current import CurrentObserver
 from companion.messages import ModeNumber, NavState, Severity
 from companion.modes.auto import AutoMode
 from companion.modes.base import Mode, ModeOutput
@@ -23,6 +24,7 @@ from companion.modes.hold import HoldMode
 from companion.modes.host import ModeHost
 from companion.modes.loiter import LoiterMode
 from companion.modes.manual import ManualMode
+from companion.modes.navigation import NavMode
 from companion.modes.rtl import RtlMode
 
 log = logging.getLogger(__name__)
@@ -62,6 +64,13 @@ class ModeManager:
         self._current = initial
         self._listeners: list[ModeListener] = []
         self._entered = False
+        self.drift = CurrentObserver()
+        """The water current seen from over-ground velocity and heading, learnt in every mode and
+        shared by the navigating modes (crab feed-forward, :mod:`companion.guidance.current`)."""
+        self._drift_t_s: float | None = None
+        for m in self._modes.values():
+            if isinstance(m, NavMode):
+                m.drift = self.drift
 
     @property
     def current(self) -> Mode:
@@ -138,6 +147,10 @@ class ModeManager:
         """Run the active mode for one navigation sample (the pipeline's modes stage): what it
         asks of the controller, ``None`` when nothing new this sample (the last command stays)."""
         mode = self._current
+        if self._drift_t_s is not None:
+            self.drift.update(nav.vel_north_mps, nav.vel_east_mps, nav.heading_rad, nav.r_radps,
+                              min(1.0, nav.t_s - self._drift_t_s))
+        self._drift_t_s = nav.t_s
         try:
             return mode.update(host, nav)
         except Exception as exc:

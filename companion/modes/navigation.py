@@ -11,16 +11,21 @@ anchored where the task starts (:mod:`companion.guidance.geo`).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Protocol
 
 from companion.clock import StepTimer
 from companion.control.target import ControlRequest, ControlTarget
 from companion.guidance.circle import CircleTracker
+from companion.guidance.current import CurrentObserver, crab_heading, water_speed_mps
 from companion.guidance.geo import LocalFrame, distance_bearing, wrap_2pi, wrap_pi
+from companion.guidance.hold_params import current_station_gains
+from companion.guidance.holding import CurrentStationKeeper
 from companion.guidance.los import LosFollower, LosType
 from companion.guidance.params import circle_gains, leg_config, los_gains, station_gains
 from companion.guidance.station import StationKeeper
-from companion.guidance.waypoints import LegNavigator
+from companion.guidance.stem import stem_route
+from companion.guidance.waypoints import U_TURN_DONE_RAD, U_TURN_RAD, LegNavigator, u_turn_sign
 from companion.messages import NavState
 from companion.modes.base import Mode, NavTarget, requires_position
 from companion.modes.host import ModeHost
@@ -46,15 +51,37 @@ def course_over_ground(nav: NavState) -> float:
     return math.atan2(nav.vel_east_mps, nav.vel_north_mps)
 
 
+def crab_feed_forward(params: ParamStore, drift: CurrentObserver | None) -> CurrentObserver | None:
+    """The observer whose current the course targets are crabbed against (``USV_LOS_CFF`` 1 and a
+    converged estimate), else ``None`` (the controllers remove the measured crab angle)."""
+    if drift is None or int(params.get_or("USV_LOS_CFF", 0.0)) != 1 or not drift.converged:
+        return None
+    return drift
+
+
+def crabbed(target: ControlTarget, nav: NavState, drift: CurrentObserver | None) -> ControlTarget:
+    """``target``'s course over ground as the heading that makes it good through the estimated
+    current (:func:`companion.guidance.current.crab_heading`); unchanged without an estimate."""
+    if drift is None or target.is_heading:
+        return target
+    c = drift.current_ne_mps
+    u_w = max(water_speed_mps(nav.vel_north_mps, nav.vel_east_mps, c), 1.0)
+    return replace(target, course_rad=crab_heading(target.course_rad, u_w, c), is_heading=True)
+
+
 class GotoTask:
     """Follow the leg from ``start`` to ``end`` (lat, lon) at ``speed_mps``."""
 
     def __init__(self, params: ParamStore, start: tuple[float, float], end: tuple[float, float],
                  speed_mps: float, accept_radius_m: float | None = None,
-                 next_point: tuple[float, float] | None = None, follower: LosFollower | None = None) -> None:
+                 next_point: tuple[float, float] | None = None, follower: LosFollower | None = None,
+                 drift: CurrentObserver | None = None) -> None:
         """``follower``: the previous leg's LOS follower, so the crab (integral/adaptive) estimate
         of the current carries over a corner (scaled by the cosine of the turn) instead of being
-        learnt again on every leg; a new one when None."""
+        learnt again on every leg; a new one when None.  ``drift``: the vehicle's current
+        observer, for the crab feed-forward (``USV_LOS_CFF``)."""
+        self.params = params
+        self.drift = drift
         self.frame = LocalFrame(*start)
         self.end = end
         radius = accept_radius_m if accept_radius_m and accept_radius_m > 0 else param(params, "WP_RADIUS")
@@ -69,15 +96,35 @@ class GotoTask:
         self.reached = False
         self.distance_m = math.inf
         self.cross_track_m = 0.0
+        self._u_turn = 0.0
+
+    def _turn_onto_leg(self, target: ControlTarget, nav: NavState, leg_rad: float) -> ControlTarget:
+        """A U-turn onto the leg goes the way :func:`~companion.guidance.waypoints.u_turn_sign`
+        picks (toward the inside of the route), kept until the boat points within 90 deg."""
+        err = wrap_pi(target.course_rad - nav.heading_rad)
+        if self._u_turn == 0.0 and abs(err) > U_TURN_RAD and self.nav.inside_sign != 0.0:
+            self._u_turn = u_turn_sign(nav.heading_rad, leg_rad, self.nav.inside_sign)
+        elif abs(err) < U_TURN_DONE_RAD:
+            self._u_turn = 0.0
+        if self._u_turn == 0.0 or math.copysign(1.0, err) == self._u_turn:
+            return target
+        return replace(target, course_rad=wrap_2pi(nav.heading_rad + self._u_turn * U_TURN_RAD),
+                       is_heading=True, course_rate_radps=0.0)
 
     def step(self, nav: NavState, dt_s: float) -> ControlTarget:
         pos = self.frame.to_ne(nav.lat_deg, nav.lon_deg)
-        st = self.nav.update(pos, nav.speed_over_ground_mps, dt_s, course_over_ground(nav))
+        drift = self.drift if self.drift is not None and self.drift.converged else None
+        plan_current = drift.current_ne_mps if drift is not None and int(
+            self.params.get_or("USV_WP_DRIFT", 0.0)) == 1 else None
+        st = self.nav.update(pos, nav.speed_over_ground_mps, dt_s, course_over_ground(nav), plan_current)
         end = self.nav.end
         self.distance_m = math.hypot(end[0] - pos[0], end[1] - pos[1])
         self.cross_track_m = st.errors.cross_m
         self.reached = self.reached or st.reached
-        return st.target
+        target = crabbed(st.target, nav, crab_feed_forward(self.params, self.drift))
+        if int(self.params.get_or("USV_WP_UTURN", 0.0)) == 1:
+            target = self._turn_onto_leg(target, nav, st.errors.path_angle_rad)
+        return target
 
 
 class StationTask:
@@ -100,14 +147,19 @@ class CircleTask:
     """Approach ``point`` and circle it at ``radius_m``; counts turns and time on the circle."""
 
     def __init__(self, params: ParamStore, point: tuple[float, float], radius_m: float,
-                 clockwise: bool = True, approach_speed_mps: float = 3.0) -> None:
+                 clockwise: bool = True, approach_speed_mps: float = 3.0,
+                 drift: CurrentObserver | None = None) -> None:
         self.frame = LocalFrame(*point)
+        self.params = params
+        self.drift = drift
         self.point = point
         self.radius_m = max(radius_m, params.get("USV_TURN_RAD"))
         self.tracker = CircleTracker((0.0, 0.0), self.radius_m, clockwise, circle_gains(params))
         self.circle_speed_mps = params.get("USV_CIRC_SPD")
         self.approach_speed_mps = approach_speed_mps
         self.on_circle_since_s: float | None = None
+        self.stem: StemHold | None = None
+        """Set when the current is too strong to circle in: the boat holds on the circle."""
         self.turns = 0.0
         self._last_bearing: float | None = None
         self.distance_m = math.inf
@@ -125,12 +177,85 @@ class CircleTask:
             if self._last_bearing is not None:
                 self.turns += abs(wrap_pi(bearing - self._last_bearing)) / (2 * math.pi)
             self._last_bearing = bearing
+        if self.stem is None:
+            self.stem = StemHold.when_needed(self.params, self.drift, self.radius_m, pos, nav.heading_rad)
+        if self.stem is not None:
+            return self.stem.step(pos, nav, dt_s)
         far = out.distance_m > self.radius_m + 10.0
         speed = self.approach_speed_mps if far else self.circle_speed_mps
-        return ControlTarget(out.course_rad, speed, out.course_rate_radps)
+        target = ControlTarget(out.course_rad, speed, out.course_rate_radps)
+        return crabbed(target, nav, crab_feed_forward(self.params, self.drift))
 
     def time_on_circle_s(self, now_s: float) -> float:
         return 0.0 if self.on_circle_since_s is None else now_s - self.on_circle_since_s
+
+
+STEM_POWERED_TURN_RAD = math.radians(60.0)
+"""On the circle the hold turns at the corner speed while the bow is farther than this off the
+heading the station keeper wants: at idle the turn is slow and a strong current sweeps the boat
+tens of metres downstream before the bow is into it (measured: 45 m in 1.2 m/s)."""
+
+
+class StemHold:
+    """Keep station on the circle, bow into the current (:mod:`companion.guidance.stem`): a leg to
+    the abeam point, then the current-fed station keeper
+    (:class:`~companion.guidance.holding.CurrentStationKeeper`, the observed current as its
+    feed-forward) onto the hold point."""
+
+    def __init__(self, params: ParamStore, radius_m: float, current_ne_mps: tuple[float, float],
+                 pos_ne: tuple[float, float], heading_rad: float) -> None:
+        *self.route, self.hold_ne = stem_route((0.0, 0.0), radius_m, current_ne_mps, pos_ne)
+        self.legs = LegNavigator(LosFollower(los_gains(params), LosType(int(params.get("USV_LOS_TYPE")))),
+                                 leg_config(params, params.get("USV_CIRC_SPD") + math.hypot(*current_ne_mps),
+                                            1.0))
+        self._leg = 0
+        self._set_leg(pos_ne)
+        self.current_ne_mps = current_ne_mps
+        self.keeper = CurrentStationKeeper(self.hold_ne, heading_rad, current_station_gains(params))
+        self.holding = False
+        self._turn_sign = 0.0
+
+    @classmethod
+    def when_needed(cls, params: ParamStore, drift: CurrentObserver | None, radius_m: float,
+                    pos_ne: tuple[float, float], heading_rad: float) -> StemHold | None:
+        """A hold when the observed current is at least ``USV_CIRC_HOLD_C``, else ``None`` (circle)."""
+        limit = params.get_or("USV_CIRC_HOLD_C", 0.0)
+        if drift is None or limit <= 0.0 or not drift.converged:
+            return None
+        if math.hypot(*drift.current_ne_mps) < limit:
+            return None
+        return cls(params, radius_m, drift.current_ne_mps, pos_ne, heading_rad)
+
+    def _set_leg(self, pos_ne: tuple[float, float]) -> None:
+        start = pos_ne if self._leg == 0 else self.route[self._leg - 1]
+        nxt = self.route[self._leg + 1] if self._leg + 1 < len(self.route) else None
+        self.legs.set_leg(start, self.route[self._leg], nxt)
+
+    def step(self, pos_ne: tuple[float, float], nav: NavState, dt_s: float) -> ControlTarget:
+        if not self.holding:
+            st = self.legs.update(pos_ne, nav.speed_over_ground_mps, dt_s, course_over_ground(nav))
+            if not st.reached:
+                return st.target
+            self._leg += 1
+            if self._leg < len(self.route):
+                self._set_leg(pos_ne)
+                return self.legs.update(pos_ne, nav.speed_over_ground_mps, dt_s,
+                                        course_over_ground(nav)).target
+            self.holding = True
+        out = self.keeper.update(pos_ne, self.current_ne_mps, dt_s)
+        speed, heading = out.surge_speed_mps, out.heading_rad
+        err = wrap_pi(out.heading_rad - nav.heading_rad)
+        if abs(err) > STEM_POWERED_TURN_RAD:
+            speed = max(speed, self.legs.cfg.turn_speed_mps)  # turn under power, not at idle
+        # a turn of about 180 deg keeps the direction it started in (near +-pi the sign of the
+        # heading error flips with every wave and the boat ran on straight, 60 m downstream)
+        if self._turn_sign == 0.0 and abs(err) > U_TURN_RAD:
+            self._turn_sign = math.copysign(1.0, err)
+        elif abs(err) < U_TURN_DONE_RAD:
+            self._turn_sign = 0.0
+        if self._turn_sign != 0.0 and math.copysign(1.0, err) != self._turn_sign:
+            heading = wrap_2pi(nav.heading_rad + self._turn_sign * U_TURN_RAD)
+        return ControlTarget(heading, speed, is_heading=True, hold_station=True)
 
 
 class Task(Protocol):
@@ -153,6 +278,8 @@ class NavMode(Mode):
         super().__init__()
         self.task: Task | None = None
         self._timer = StepTimer()
+        self.drift = CurrentObserver()
+        """The current observer (the mode manager shares one between its modes and updates it)."""
 
     def requirements(self, host: ModeHost) -> str | None:
         return requires_position(host)

@@ -1,9 +1,11 @@
-"""RTL (Rover 11): return to home along a straight leg, then keep station there."""
+"""RTL (Rover 11): return to home along a straight leg, then hold it (as GUIDED holds its point:
+:mod:`companion.modes.holding`)."""
 
 from __future__ import annotations
 
 from companion.messages import ModeNumber, NavState
 from companion.modes.base import ModeOutput, StandardMode
+from companion.modes.holding import ApproachTask, BrakingGoto, goto_task, hold_task
 from companion.modes.host import ModeHost
 from companion.modes.navigation import GotoTask, NavMode, StationTask, param, wp_speed_mps
 
@@ -25,13 +27,16 @@ class RtlMode(NavMode):
         assert nav is not None and host.home is not None
         params = host.params
         home = (host.home.lat_deg, host.home.lon_deg)
-        self.task = GotoTask(params, (nav.lat_deg, nav.lon_deg), home, wp_speed_mps(params),
-                             param(params, "WP_RADIUS"))
+        self.task = goto_task(host, (nav.lat_deg, nav.lon_deg), home, wp_speed_mps(params),
+                              param(params, "WP_RADIUS"))
 
     def update(self, host: ModeHost, nav: NavState) -> ModeOutput:
-        if isinstance(self.task, GotoTask) and self.task.reached:
-            host.status("RTL: home reached, keeping station")
-            self.task = StationTask(host.params, self.task.end, nav.heading_rad)
+        task = self.task
+        if isinstance(task, GotoTask | ApproachTask | BrakingGoto) and task.reached:
+            near = task.distance_m <= param(host.params, "WP_RADIUS")
+            host.status("RTL: home reached, keeping station" if near
+                        else f"RTL: {task.distance_m:.0f} m from home, bow into the current: braking onto it")
+            self.task = hold_task(host, task.end, nav) or StationTask(host.params, task.end, nav.heading_rad)
         if self.task is not None:
             return self.run_task(host, nav, self.task)
         return None

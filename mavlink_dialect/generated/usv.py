@@ -503,6 +503,16 @@ enums["USV_MODEL_HEALTH"][3] = EnumEntry("USV_MODEL_HEALTH_RESET", """The filter
 USV_MODEL_HEALTH_ENUM_END = 4
 enums["USV_MODEL_HEALTH"][4] = EnumEntry("USV_MODEL_HEALTH_ENUM_END", """""")
 
+# USV_CURRENT_ESTIMATOR
+enums["USV_CURRENT_ESTIMATOR"] = Enum()
+enums["USV_CURRENT_ESTIMATOR"].bitmask = False
+USV_CURRENT_ESTIMATOR_NONE = 0
+enums["USV_CURRENT_ESTIMATOR"][0] = EnumEntry("USV_CURRENT_ESTIMATOR_NONE", """No current estimate (the chapter's filter, or no navigation yet): the other fields are NaN.""")
+USV_CURRENT_ESTIMATOR_UKF = 1
+enums["USV_CURRENT_ESTIMATOR"][1] = EnumEntry("USV_CURRENT_ESTIMATOR_UKF", """The current-augmented UKF (two earth-frame current states beside the chapter's Eq. 5-11).""")
+USV_CURRENT_ESTIMATOR_ENUM_END = 2
+enums["USV_CURRENT_ESTIMATOR"][2] = EnumEntry("USV_CURRENT_ESTIMATOR_ENUM_END", """""")
+
 # HL_FAILURE_FLAG
 enums["HL_FAILURE_FLAG"] = Enum()
 enums["HL_FAILURE_FLAG"].bitmask = True
@@ -6464,6 +6474,7 @@ MAVLINK_MSG_ID_UNKNOWN = -2
 MAVLINK_MSG_ID_USV_LAUNCHER_STATUS = 43000
 MAVLINK_MSG_ID_USV_SAMPLER_STATUS = 43001
 MAVLINK_MSG_ID_USV_MODEL_STATUS = 43002
+MAVLINK_MSG_ID_USV_CURRENT_ESTIMATE = 43003
 MAVLINK_MSG_ID_SYS_STATUS = 1
 MAVLINK_MSG_ID_SYSTEM_TIME = 2
 MAVLINK_MSG_ID_PING = 4
@@ -6821,6 +6832,55 @@ class MAVLink_usv_model_status_message(MAVLink_message):
 # Define name on the class for backwards compatibility (it is now msgname).
 # Done with setattr to hide the class variable from mypy.
 setattr(MAVLink_usv_model_status_message, "name", mavlink_msg_deprecated_name_property())
+
+
+class MAVLink_usv_current_estimate_message(MAVLink_message):
+    """
+    The estimated water current (issue 14): earth frame, oceanographic
+    convention (the direction the water flows toward), from the
+    current-augmented UKF (configuration models.ukf = "current"). Also
+    streamed as NAMED_VALUE_FLOAT CUR_SPD (m/s) and CUR_DIR (deg) so
+    ground stations without the dialect can plot it.
+    """
+
+    id = MAVLINK_MSG_ID_USV_CURRENT_ESTIMATE
+    msgname = "USV_CURRENT_ESTIMATE"
+    fieldnames = ["time_boot_ms", "current_north", "current_east", "speed", "direction", "speed_std", "confidence", "estimator"]
+    ordered_fieldnames = ["time_boot_ms", "current_north", "current_east", "speed", "direction", "speed_std", "confidence", "estimator"]
+    fieldtypes = ["uint32_t", "float", "float", "float", "float", "float", "float", "uint8_t"]
+    fielddisplays_by_name: Dict[str, str] = {}
+    fieldenums_by_name: Dict[str, str] = {"estimator": "USV_CURRENT_ESTIMATOR"}
+    fieldunits_by_name: Dict[str, str] = {"time_boot_ms": "ms", "current_north": "m/s", "current_east": "m/s", "speed": "m/s", "direction": "deg", "speed_std": "m/s"}
+    native_format = bytearray(b"<IffffffB")
+    orders = [0, 1, 2, 3, 4, 5, 6, 7]
+    lengths = [1, 1, 1, 1, 1, 1, 1, 1]
+    array_lengths = [0, 0, 0, 0, 0, 0, 0, 0]
+    crc_extra = 164
+    unpacker = struct.Struct("<IffffffB")
+    instance_field = None
+    instance_offset = -1
+
+    def __init__(self, time_boot_ms: int, current_north: float, current_east: float, speed: float, direction: float, speed_std: float, confidence: float, estimator: int):
+        MAVLink_message.__init__(self, MAVLink_usv_current_estimate_message.id, MAVLink_usv_current_estimate_message.msgname)
+        self._fieldnames = MAVLink_usv_current_estimate_message.fieldnames
+        self._instance_field = MAVLink_usv_current_estimate_message.instance_field
+        self._instance_offset = MAVLink_usv_current_estimate_message.instance_offset
+        self.time_boot_ms = time_boot_ms
+        self.current_north = current_north
+        self.current_east = current_east
+        self.speed = speed
+        self.direction = direction
+        self.speed_std = speed_std
+        self.confidence = confidence
+        self.estimator = estimator
+
+    def pack(self, mav: "MAVLink", force_mavlink1: bool = False) -> bytes:
+        return self._pack(mav, self.crc_extra, self.unpacker.pack(self.time_boot_ms, self.current_north, self.current_east, self.speed, self.direction, self.speed_std, self.confidence, self.estimator), force_mavlink1=force_mavlink1)
+
+
+# Define name on the class for backwards compatibility (it is now msgname).
+# Done with setattr to hide the class variable from mypy.
+setattr(MAVLink_usv_current_estimate_message, "name", mavlink_msg_deprecated_name_property())
 
 
 class MAVLink_sys_status_message(MAVLink_message):
@@ -16899,6 +16959,7 @@ mavlink_map: Dict[int, Type[MAVLink_message]] = {
     MAVLINK_MSG_ID_USV_LAUNCHER_STATUS: MAVLink_usv_launcher_status_message,
     MAVLINK_MSG_ID_USV_SAMPLER_STATUS: MAVLink_usv_sampler_status_message,
     MAVLINK_MSG_ID_USV_MODEL_STATUS: MAVLink_usv_model_status_message,
+    MAVLINK_MSG_ID_USV_CURRENT_ESTIMATE: MAVLink_usv_current_estimate_message,
     MAVLINK_MSG_ID_SYS_STATUS: MAVLink_sys_status_message,
     MAVLINK_MSG_ID_SYSTEM_TIME: MAVLink_system_time_message,
     MAVLINK_MSG_ID_PING: MAVLink_ping_message,
@@ -17622,6 +17683,46 @@ class MAVLink(object):
 
         """
         self.send(self.usv_model_status_encode(time_boot_ms, delta_u, delta_v, delta_r, delta_u_std, delta_v_std, delta_r_std, innovation_nis, nis_bound, update_count, health), force_mavlink1=force_mavlink1)
+
+    def usv_current_estimate_encode(self, time_boot_ms: int, current_north: float, current_east: float, speed: float, direction: float, speed_std: float, confidence: float, estimator: int) -> MAVLink_usv_current_estimate_message:
+        """
+        The estimated water current (issue 14): earth frame, oceanographic
+        convention (the direction the water flows toward), from the
+        current-augmented UKF (configuration models.ukf = "current").
+        Also streamed as NAMED_VALUE_FLOAT CUR_SPD (m/s) and CUR_DIR
+        (deg) so ground stations without the dialect can plot it.
+
+        time_boot_ms              : Timestamp (time since companion start). [ms] (type:uint32_t)
+        current_north             : Current velocity, north component; NaN if not estimated. [m/s] (type:float)
+        current_east              : Current velocity, east component; NaN if not estimated. [m/s] (type:float)
+        speed                     : Current speed; NaN if not estimated. [m/s] (type:float)
+        direction                 : Direction the water flows toward, clockwise from true north, 0-360; NaN if not estimated. [deg] (type:float)
+        speed_std                 : Standard deviation of the speed (from the filter's covariance); NaN if not estimated. [m/s] (type:float)
+        confidence                : How clearly the estimate stands out of its own uncertainty, 0 (slack water or unknown) to 1. (type:float)
+        estimator                 : Who estimates the current. (type:uint8_t, values:USV_CURRENT_ESTIMATOR)
+
+        """
+        return MAVLink_usv_current_estimate_message(time_boot_ms, current_north, current_east, speed, direction, speed_std, confidence, estimator)
+
+    def usv_current_estimate_send(self, time_boot_ms: int, current_north: float, current_east: float, speed: float, direction: float, speed_std: float, confidence: float, estimator: int, force_mavlink1: bool = False) -> None:
+        """
+        The estimated water current (issue 14): earth frame, oceanographic
+        convention (the direction the water flows toward), from the
+        current-augmented UKF (configuration models.ukf = "current").
+        Also streamed as NAMED_VALUE_FLOAT CUR_SPD (m/s) and CUR_DIR
+        (deg) so ground stations without the dialect can plot it.
+
+        time_boot_ms              : Timestamp (time since companion start). [ms] (type:uint32_t)
+        current_north             : Current velocity, north component; NaN if not estimated. [m/s] (type:float)
+        current_east              : Current velocity, east component; NaN if not estimated. [m/s] (type:float)
+        speed                     : Current speed; NaN if not estimated. [m/s] (type:float)
+        direction                 : Direction the water flows toward, clockwise from true north, 0-360; NaN if not estimated. [deg] (type:float)
+        speed_std                 : Standard deviation of the speed (from the filter's covariance); NaN if not estimated. [m/s] (type:float)
+        confidence                : How clearly the estimate stands out of its own uncertainty, 0 (slack water or unknown) to 1. (type:float)
+        estimator                 : Who estimates the current. (type:uint8_t, values:USV_CURRENT_ESTIMATOR)
+
+        """
+        self.send(self.usv_current_estimate_encode(time_boot_ms, current_north, current_east, speed, direction, speed_std, confidence, estimator), force_mavlink1=force_mavlink1)
 
     def sys_status_encode(self, onboard_control_sensors_present: int, onboard_control_sensors_enabled: int, onboard_control_sensors_health: int, load: int, voltage_battery: int, current_battery: int, battery_remaining: int, drop_rate_comm: int, errors_comm: int, errors_count1: int, errors_count2: int, errors_count3: int, errors_count4: int, onboard_control_sensors_present_extended: int = 0, onboard_control_sensors_enabled_extended: int = 0, onboard_control_sensors_health_extended: int = 0) -> MAVLink_sys_status_message:
         """

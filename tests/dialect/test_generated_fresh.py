@@ -58,6 +58,9 @@ def test_messages_round_trip_through_the_generated_module() -> None:
         usv.MAVLink_usv_model_status_message(
             3000, 0.1, -0.02, 0.003, 0.01, 0.01, 0.001, 2.4, 7.8, 42, usv.USV_MODEL_HEALTH_OK
         ),
+        usv.MAVLink_usv_current_estimate_message(
+            4000, 0.0, 0.5, 0.5, 90.0, 0.01, 0.98, usv.USV_CURRENT_ESTIMATOR_UKF
+        ),
     ]
     for msg in msgs:
         buf = msg.pack(tx)

@@ -12,6 +12,7 @@ import pytest
 from companion.config import default_config
 from companion.estimation.service import (
     EstimatorStage,
+    load_companion_current_settings,
     load_companion_model,
     load_companion_ukf_backend,
     load_companion_ukf_settings,
@@ -57,6 +58,40 @@ def test_filterpy_backend_estimates_what_the_native_one_does(tmp_path: Path) -> 
         outs.append((err.delta_nu, (cur.north_mps, cur.east_mps)))
     for a, b in zip(outs[0], outs[1], strict=True):
         assert a == pytest.approx(b, abs=1e-9)
+
+
+def _turning_navs(n: int) -> list[NavState]:
+    """A boat making 1.5 m/s through the water while turning, in a 0.6 m/s current toward east."""
+    out = []
+    for k in range(n):
+        psi = 0.02 * k
+        u_r, cn, ce = 1.5, 0.0, 0.6
+        u = u_r + cn * math.cos(psi) + ce * math.sin(psi)  # body frame over ground: nu_r + R^T V_c
+        v = -cn * math.sin(psi) + ce * math.cos(psi)
+        vn, ve = u_r * math.cos(psi) + cn, u_r * math.sin(psi) + ce
+        out.append(NavState(0.01 * k, 41.0, 123.0, 0.0, psi, 0.0, 0.0, vn, ve, u, v, 2.0))
+    return out
+
+
+def test_default_runs_the_chapter_filter_for_the_controller_and_a_current_filter_beside_it(
+        tmp_path: Path) -> None:
+    """Default configuration: the model error is exactly the chapter filter's (what the controller
+    flies today), and the current comes from the current-augmented filter run alongside."""
+    cfg = default_config().with_overrides({"vehicle.state_dir": str(tmp_path)})
+    default = EstimatorStage(load_companion_model(cfg), load_companion_ukf_settings(cfg),
+                             load_companion_ukf_backend(cfg), load_companion_current_settings(cfg))
+    chapter = _stage(tmp_path)
+    alone = _stage(tmp_path, **{"models.ukf": "current"})
+    applied = ActuatorCommand(0.0, 0.3, 0.3)
+    for nav in _turning_navs(1500):
+        err, ref = default.step(nav, applied), chapter.step(nav, applied)
+        alone.step(nav, applied)
+        assert err is not None and ref is not None and err.delta_nu == ref.delta_nu
+    assert chapter.current is None and default.current is not None and alone.current is not None
+    assert (default.current.north_mps, default.current.east_mps) == pytest.approx(
+        (alone.current.north_mps, alone.current.east_mps), abs=1e-9)
+    assert load_companion_current_settings(cfg.with_overrides({"models.current_estimator": "none"})) is None
+    assert load_companion_current_settings(cfg.with_overrides({"models.ukf": "current"})) is None
 
 
 def test_chapter_filter_estimates_no_current(tmp_path: Path) -> None:

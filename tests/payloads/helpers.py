@@ -48,6 +48,7 @@ class World:
         self.pressure_mpa = 30.0
         self.bottles_ml = [0.0] * 4
         self.lat, self.lon, self.heading_rad = LAT0, LON0, 0.5
+        self.vel_ne_mps = (0.0, 0.0)
         self.commands: list[PayloadCommand] = []
         ctx.bus.topic(PAYLOAD_CMD_TOPIC).add_listener(self.commands.append)
 
@@ -77,8 +78,8 @@ class World:
                 heading_rad=self.heading_rad,
                 roll_rad=0.0,
                 pitch_rad=0.0,
-                vel_north_mps=0.0,
-                vel_east_mps=0.0,
+                vel_north_mps=self.vel_ne_mps[0],
+                vel_east_mps=self.vel_ne_mps[1],
                 u_mps=0.0,
                 v_mps=0.0,
                 r_radps=0.0,

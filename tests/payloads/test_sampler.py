@@ -143,6 +143,28 @@ async def test_pump_only_inside_acceptance_circle_and_distance_logged(world: Wor
     assert record.target_lat_deg == pytest.approx(target_lat)
 
 
+async def test_pump_stops_before_the_boat_leaves_the_circle(world: World) -> None:
+    """2.3 m from the point inside the 2.5 m circle: the pump runs while the boat closes or holds,
+    and stops while it heads out at 1 m/s (it would be outside before the stop reached the pump)."""
+    world.publish_sensors()
+    sampler = WaterSampler(world.ctx, world.outputs, world.log)
+    target_lat = LocalFrame(LAT0, LON0).to_lat_lon(-2.3, 0.0)[0]  # the boat is 2.3 m north of it
+    job = sampler.start(SampleRequest(fill_s=10.0, target_lat_deg=target_lat, target_lon_deg=LON0,
+                                      accept_radius_m=2.5))
+    assert isinstance(job, SampleJob)
+    world.vel_ne_mps = (-1.0, 0.0)  # closing
+    await world.advance(1.0)
+    assert world.outputs.current.pump_on
+    world.vel_ne_mps = (1.0, 0.0)  # heading out
+    await world.advance(0.5)
+    assert not world.outputs.current.pump_on
+    world.vel_ne_mps = (0.0, 1.0)  # along the circle
+    await world.advance(0.5)
+    assert world.outputs.current.pump_on
+    assert sampler.stop_pump()
+    await world.advance(0.5)
+
+
 async def test_restart_remembers_full_bottles(world: World, tmp_path) -> None:
     world.publish_sensors()
     sampler = WaterSampler(world.ctx, world.outputs, world.log)

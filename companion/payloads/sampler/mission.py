@@ -70,7 +70,7 @@ class SampleHereItem(NavItem):
         params = self.run.host.params
         default_radius_m = params.get_or("USV_SMPL_CIRC_M", params.get("USV_TURN_RAD"))
         radius = self.item.param2 if self.item.param2 > 0 else default_radius_m
-        self.run.task = CircleTask(params, self.point, radius)
+        self.run.task = CircleTask(params, self.point, radius, drift=self.run.drift)
         self.run.phase = Phase.ACTION
         return False
 

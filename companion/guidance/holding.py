@@ -1,0 +1,192 @@
+"""Holding a point in a known current (issue 14): bow into it, or a drift-compensated orbit.
+
+A water jet idles with thrust (the simulated boat creeps at about 0.7 m/s through the water) and
+has no reverse, so what holding a point means depends on the current ``V_c`` (earth frame,
+north/east m/s, from the estimator):
+
+* ``|V_c|`` above the idle creep: keep station bow into the current
+  (:class:`CurrentStationKeeper`).  The station keeper's PI law of
+  :mod:`companion.guidance.station` gets the current as a feed-forward instead of learning it
+  through its integral (which took tens of seconds and let the boat wander meanwhile)::
+
+      v_g = sat(-k_p e, v_max)                 desired velocity over ground
+      r  += -k_i e dt  (|r| <= r_max)          residual the estimate misses (wind leeway)
+      w   = v_g - V_c + r                      desired velocity through the water
+
+  The heading is the direction of ``w``, kept within ``max_off_upstream_rad`` of upstream (a
+  jet that turns broadside to a strong current is swept away: it backs down stern-first to the
+  point, ferry-gliding sideways), and the surge over ground the projection of ``v_g`` on it.
+
+* weaker: the boat cannot stand still, so it circles the point (:class:`DriftOrbit`) at a
+  constant speed through the water ``U_w`` on a ground circle of radius ``R``.  The desired
+  course over ground is the orbit vector field of Beard and McLain (2012, Eq. 10.13; as
+  :mod:`companion.guidance.circle`), ``chi = phi + lam (pi/2 + atan(k e_r / R))``, and the
+  heading is the one that makes good ``chi`` through the current (crab feed-forward, wind
+  triangle)::
+
+      c_perp = V_c . h(chi),  h(chi) = (-sin chi, cos chi)
+      psi    = chi - asin(c_perp / U_w)
+      V_g    = U_w cos(psi - chi) + V_c . (cos chi, sin chi)         ground speed along chi
+
+  with the feed-forward turn rate ``dpsi/dt = dchi/dt (1 + c_par / (U_w cos(psi - chi)))``,
+  ``dchi/dt = lam V_g / R`` on the circle, and the surge over ground
+  ``u = U_w + V_c . (cos psi, sin psi)`` (the speed the controllers track is over ground).
+
+The strategy is picked from the estimate at once (no exploratory loops): :func:`pick_strategy`.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass
+
+from companion.guidance.geo import distance_bearing, wrap_2pi, wrap_pi
+
+MAX_CRAB_SIN = 0.8
+"""Largest |sin| of the orbit's crab angle (53 deg)."""
+
+
+class HoldStrategy(enum.IntEnum):
+    """How a point is held."""
+
+    LEGACY = 0
+    """No current estimate: the station keeper learns the current itself (before issue 14)."""
+    STATION = 1
+    """Bow into the current."""
+    ORBIT = 2
+    """Drift-compensated orbit at the turning radius."""
+
+
+def pick_strategy(current_ne_mps: tuple[float, float] | None, confidence: float, creep_mps: float,
+                  min_confidence: float = 0.5) -> HoldStrategy:
+    """STATION when the estimate stands out of its uncertainty (``confidence``) and is stronger
+    than the jet's idle creep; ORBIT when it is weaker (a current that does not stand out is slack
+    water); LEGACY without an estimate."""
+    if current_ne_mps is None:
+        return HoldStrategy.LEGACY
+    if confidence >= min_confidence and math.hypot(*current_ne_mps) > creep_mps:
+        return HoldStrategy.STATION
+    return HoldStrategy.ORBIT
+
+
+@dataclass(frozen=True, slots=True)
+class HoldOutput:
+    heading_rad: float
+    surge_speed_mps: float
+    """Desired surge speed over ground (negative: let the current set the boat back)."""
+    turn_rate_radps: float
+    distance_m: float
+    radial_error_m: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class CurrentStationGains:
+    kp_per_s: float = 0.25
+    ki_per_s2: float = 0.02
+    v_max_mps: float = 2.0
+    residual_max_mps: float = 0.5
+    min_speed_mps: float = 0.15
+    """Below this desired water speed the heading freezes (slack on station)."""
+    max_off_upstream_rad: float = math.radians(70.0)
+
+
+class CurrentStationKeeper:
+    """Station keeping bow into a known current (module docstring); positions north/east metres."""
+
+    def __init__(self, target_ne: tuple[float, float], heading_rad: float,
+                 gains: CurrentStationGains | None = None) -> None:
+        self.target_ne = target_ne
+        self.gains = gains or CurrentStationGains()
+        self.residual_ne = [0.0, 0.0]
+        self.heading_rad = wrap_2pi(heading_rad)
+
+    def update(self, pos_ne: tuple[float, float], current_ne_mps: tuple[float, float],
+               dt_s: float) -> HoldOutput:
+        g = self.gains
+        en, ee = pos_ne[0] - self.target_ne[0], pos_ne[1] - self.target_ne[1]
+        vn, ve = -g.kp_per_s * en, -g.kp_per_s * ee
+        vmag = math.hypot(vn, ve)
+        if vmag > g.v_max_mps:
+            vn, ve = vn * g.v_max_mps / vmag, ve * g.v_max_mps / vmag
+        self.residual_ne[0] -= g.ki_per_s2 * en * dt_s
+        self.residual_ne[1] -= g.ki_per_s2 * ee * dt_s
+        rmag = math.hypot(*self.residual_ne)
+        if rmag > g.residual_max_mps:
+            self.residual_ne = [r * g.residual_max_mps / rmag for r in self.residual_ne]
+        wn = vn - current_ne_mps[0] + self.residual_ne[0]
+        we = ve - current_ne_mps[1] + self.residual_ne[1]
+        if math.hypot(wn, we) >= g.min_speed_mps:
+            heading = math.atan2(we, wn)
+            if math.hypot(*current_ne_mps) > 0.0:
+                upstream = math.atan2(-current_ne_mps[1], -current_ne_mps[0])
+                off = wrap_pi(heading - upstream)
+                heading = upstream + max(-g.max_off_upstream_rad, min(g.max_off_upstream_rad, off))
+            self.heading_rad = wrap_2pi(heading)
+        surge = vn * math.cos(self.heading_rad) + ve * math.sin(self.heading_rad)
+        return HoldOutput(self.heading_rad, surge, 0.0, math.hypot(en, ee))
+
+
+@dataclass(frozen=True, slots=True)
+class OrbitGains:
+    k_orbit: float = 1.5
+    """Convergence gain onto the circle (Beard and McLain's k)."""
+    water_speed_mps: float = 1.0
+    """Speed through the water on the orbit (at least the idle creep)."""
+    water_speed_margin_mps: float = 0.2
+    """The water speed is raised to |V_c| / MAX_CRAB_SIN + this when the current needs it."""
+    ki_per_s: float = 0.1
+    """Integral gain on the radial error (1/s): a turning hull slips outward through the water,
+    which the crab feed-forward does not know; the integral moves the aim point inward."""
+    integral_max_m: float = 1.5
+
+
+class DriftOrbit:
+    """Circle ``centre_ne`` at ``radius_m`` through a known current (module docstring)."""
+
+    def __init__(self, centre_ne: tuple[float, float], radius_m: float, clockwise: bool = True,
+                 gains: OrbitGains | None = None) -> None:
+        if not (radius_m > 0 and math.isfinite(radius_m)):
+            raise ValueError(f"orbit radius must be positive, got {radius_m}")
+        self.centre_ne = centre_ne
+        self.radius_m = radius_m
+        self.lam = 1.0 if clockwise else -1.0
+        self.gains = gains or OrbitGains()
+        self.integral_m = 0.0
+        self._outward_heading_rad: float | None = None
+
+    def water_speed_mps(self, current_ne_mps: tuple[float, float]) -> float:
+        g = self.gains
+        return max(g.water_speed_mps, math.hypot(*current_ne_mps) / MAX_CRAB_SIN + g.water_speed_margin_mps)
+
+    def update(self, pos_ne: tuple[float, float], current_ne_mps: tuple[float, float],
+               dt_s: float, heading_rad: float) -> HoldOutput:
+        """One step; ``heading_rad`` (the boat's) is held while the boat is within half the radius
+        of the centre (entered at the point: the bearing from the centre is GPS noise there)."""
+        g, lam, big_r = self.gains, self.lam, self.radius_m
+        d, phi = distance_bearing(pos_ne[0] - self.centre_ne[0], pos_ne[1] - self.centre_ne[1])
+        e_r = d - big_r
+        if d < 0.5 * big_r:
+            u_w = self.water_speed_mps(current_ne_mps)
+            cn_along = current_ne_mps[0] * math.cos(heading_rad) + current_ne_mps[1] * math.sin(heading_rad)
+            surge = u_w + cn_along
+            if self._outward_heading_rad is None:
+                self._outward_heading_rad = wrap_2pi(heading_rad)
+            return HoldOutput(self._outward_heading_rad, surge, 0.0, d, e_r)
+        self._outward_heading_rad = None
+        if abs(e_r) < big_r:  # on the circle: what remains is slip, not the approach
+            self.integral_m += g.ki_per_s * e_r * dt_s
+            self.integral_m = max(-g.integral_max_m, min(g.integral_max_m, self.integral_m))
+        chi = phi + lam * (0.5 * math.pi + math.atan(g.k_orbit * (e_r + self.integral_m) / big_r))
+        cn, ce = current_ne_mps
+        u_w = self.water_speed_mps(current_ne_mps)
+        c_perp = -cn * math.sin(chi) + ce * math.cos(chi)
+        c_par = cn * math.cos(chi) + ce * math.sin(chi)
+        s = max(-MAX_CRAB_SIN, min(MAX_CRAB_SIN, c_perp / u_w))
+        cos_crab = math.sqrt(1.0 - s * s)
+        psi = chi - math.asin(s)
+        v_g = max(0.0, u_w * cos_crab + c_par)
+        chi_rate = lam * v_g / max(d, 0.5 * big_r) if abs(e_r) < big_r else 0.0
+        rate = chi_rate * (1.0 + c_par / (u_w * cos_crab))
+        surge = u_w + cn * math.cos(psi) + ce * math.sin(psi)
+        return HoldOutput(wrap_2pi(psi), surge, rate, d, e_r)

@@ -1,0 +1,282 @@
+"""Holding a point from the water-current estimate: the tasks LOITER, GUIDED and RTL run on
+their point (issue 14; guidance in :mod:`companion.guidance.holding`).
+
+:func:`hold_task` picks, from the host's current estimate at the moment it is called, either
+keeping station bow into the current (:class:`CurrentStationTask`, current stronger than
+``USV_HOLD_CREEP``) or a drift-compensated orbit at ``USV_TURN_RAD`` (:class:`OrbitTask`); it
+returns ``None`` without an estimate or with ``USV_HOLD_MODE`` 0, and the mode then holds as it
+did before (its own :class:`~companion.modes.navigation.StationTask`).  :func:`goto_task` is the
+leg GUIDED and RTL fly to the point: in a strong current it arrives from ``USV_HOLD_BRAKE`` metres
+downstream, bow into the current, so the boat brakes onto the point instead of overshooting it
+and looping back (a jet cannot turn without thrust, and turning round at the point let the current
+carry it 13-28 m past).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import replace
+
+from companion.control.target import ControlTarget
+from companion.guidance.geo import LocalFrame
+from companion.guidance.hold_params import HOLD_CURRENT, current_station_gains, orbit_gains
+from companion.guidance.holding import CurrentStationKeeper, DriftOrbit, HoldStrategy, pick_strategy
+from companion.messages import NavState
+from companion.modes.host import ModeHost
+from companion.modes.navigation import GotoTask
+from companion.params import ParamStore
+
+CurrentSource = Callable[[], tuple[float, float] | None]
+"""The latest current estimate (north, east m/s), ``None`` while there is none."""
+
+
+class _Held:
+    """The last current a task saw, so a briefly stale estimate does not stop it."""
+
+    def __init__(self, source: CurrentSource, initial_ne_mps: tuple[float, float]) -> None:
+        self.source = source
+        self.current_ne_mps = initial_ne_mps
+
+    def __call__(self) -> tuple[float, float]:
+        fresh = self.source()
+        if fresh is not None:
+            self.current_ne_mps = fresh
+        return self.current_ne_mps
+
+
+class CurrentStationTask:
+    """Keep station on ``point`` (lat, lon) bow into a known current."""
+
+    strategy = HoldStrategy.STATION
+
+    def __init__(self, params: ParamStore, point: tuple[float, float], heading_rad: float,
+                 current: CurrentSource, initial_ne_mps: tuple[float, float]) -> None:
+        self.frame = LocalFrame(*point)
+        self.point = point
+        self.current = _Held(current, initial_ne_mps)
+        self.keeper = CurrentStationKeeper((0.0, 0.0), heading_rad, current_station_gains(params))
+        self.distance_m = 0.0
+        self.cross_track_m = 0.0
+
+    def step(self, nav: NavState, dt_s: float) -> ControlTarget:
+        current = self.current()
+        out = self.keeper.update(self.frame.to_ne(nav.lat_deg, nav.lon_deg), current, dt_s)
+        self.distance_m = out.distance_m
+        along = current[0] * math.cos(out.heading_rad) + current[1] * math.sin(out.heading_rad)
+        return ControlTarget(out.heading_rad, out.surge_speed_mps, is_heading=True, hold_station=True,
+                             current_along_mps=along)
+
+
+class OrbitTask:
+    """Circle ``point`` at the turning radius through a known (weak) current."""
+
+    strategy = HoldStrategy.ORBIT
+
+    def __init__(self, params: ParamStore, point: tuple[float, float], current: CurrentSource,
+                 initial_ne_mps: tuple[float, float], clockwise: bool = True) -> None:
+        self.frame = LocalFrame(*point)
+        self.point = point
+        self.current = _Held(current, initial_ne_mps)
+        self.orbit = DriftOrbit((0.0, 0.0), params.get("USV_TURN_RAD"), clockwise, orbit_gains(params))
+        self.radius_m = self.orbit.radius_m
+        self.distance_m = 0.0
+        self.radial_error_m = 0.0
+        self.cross_track_m = 0.0
+
+    def step(self, nav: NavState, dt_s: float) -> ControlTarget:
+        out = self.orbit.update(self.frame.to_ne(nav.lat_deg, nav.lon_deg), self.current(), dt_s,
+                                nav.heading_rad)
+        self.distance_m, self.radial_error_m = out.distance_m, out.radial_error_m
+        return ControlTarget(out.heading_rad, out.surge_speed_mps, out.turn_rate_radps, is_heading=True)
+
+
+def _current_source(host: ModeHost) -> CurrentSource:
+    def latest() -> tuple[float, float] | None:
+        est = host.water_current
+        return None if est is None else (est.north_mps, est.east_mps)
+    return latest
+
+
+def strategy(host: ModeHost) -> HoldStrategy:
+    """How the point will be held with the estimate of this moment (LEGACY: without one, or
+    ``USV_HOLD_MODE`` 0)."""
+    if int(host.params.get("USV_HOLD_MODE")) != HOLD_CURRENT:
+        return HoldStrategy.LEGACY
+    est = host.water_current
+    if est is None:
+        return HoldStrategy.LEGACY
+    return pick_strategy((est.north_mps, est.east_mps), est.confidence, host.params.get("USV_HOLD_CREEP"))
+
+
+def hold_task(host: ModeHost, point: tuple[float, float],
+              nav: NavState) -> CurrentStationTask | OrbitTask | None:
+    """The task that holds ``point`` (lat, lon) in the current of this moment, ``None``: LEGACY."""
+    kind = strategy(host)
+    est = host.water_current
+    if kind == HoldStrategy.LEGACY or est is None:
+        return None
+    current = (est.north_mps, est.east_mps)
+    if kind == HoldStrategy.STATION:
+        upstream = math.atan2(-est.east_mps, -est.north_mps)
+        heading = nav.heading_rad if math.cos(nav.heading_rad - upstream) > 0.0 else upstream
+        return CurrentStationTask(host.params, point, heading, _current_source(host), current)
+    return OrbitTask(host.params, point, _current_source(host), current)
+
+
+HANDOVER_FRACTION = 0.75
+"""The last leg hands over to station keeping this fraction of ``USV_HOLD_BRAKE`` from the point."""
+UPSTREAM_COS = 0.5
+"""A leg within 60 degrees of upstream already ends bow into the current: flown as it is."""
+
+
+class ApproachTask:
+    """Go to ``end`` (lat, lon) so as to arrive bow into a strong current: when the direct leg
+    does not point upstream, first to a point ``USV_HOLD_BRAKE`` metres downstream of ``end``
+    (the turn into the current happens there, where its drift carries the boat away from the
+    point, not past it), then up the current to ``end``.  :attr:`reached` as the last leg's."""
+
+    def __init__(self, params: ParamStore, start: tuple[float, float], end: tuple[float, float],
+                 speed_mps: float, current_ne_mps: tuple[float, float],
+                 accept_radius_m: float | None = None) -> None:
+        self.frame = LocalFrame(*end)
+        self.point = end
+        self.end = end
+        s_n, s_e = self.frame.to_ne(*start)
+        speed_c = math.hypot(*current_ne_mps)
+        up_n, up_e = -current_ne_mps[0] / speed_c, -current_ne_mps[1] / speed_c
+        leg = math.hypot(s_n, s_e)
+        points = [end]
+        if leg > 0.0 and (-s_n * up_n - s_e * up_e) / leg < UPSTREAM_COS:
+            back = params.get("USV_HOLD_BRAKE")
+            points.insert(0, self.frame.to_lat_lon(-up_n * back, -up_e * back))
+        self.legs = [GotoTask(params, start, points[0], speed_mps, accept_radius_m,
+                              next_point=points[1] if len(points) > 1 else None)]
+        if len(points) > 1:
+            self.legs.append(GotoTask(params, points[0], end, speed_mps, accept_radius_m,
+                                      follower=self.legs[0].follower))
+        self._leg = 0
+        self.handover_m = HANDOVER_FRACTION * params.get("USV_HOLD_BRAKE")
+        self.distance_m = math.inf
+        self.cross_track_m = 0.0
+
+    @property
+    def reached(self) -> bool:
+        """On the last leg (up the current) and within :data:`HANDOVER_FRACTION` of
+        ``USV_HOLD_BRAKE`` of the point: the station keeper's approach-speed law
+        (``USV_STN_P`` x distance) brakes the boat onto it from there."""
+        last = self.legs[-1]
+        return self._leg == len(self.legs) - 1 and (last.reached or self.distance_m <= self.handover_m)
+
+    def step(self, nav: NavState, dt_s: float) -> ControlTarget:
+        leg = self.legs[self._leg]
+        if leg.reached and self._leg < len(self.legs) - 1:
+            self._leg += 1
+            leg = self.legs[self._leg]
+        target = leg.step(nav, dt_s)
+        here = self.frame.to_ne(nav.lat_deg, nav.lon_deg)
+        self.distance_m = math.hypot(*here)
+        self.cross_track_m = leg.cross_track_m
+        return target
+
+
+ARRIVAL_DECEL_MPS2 = 0.3
+"""Braking profile of :class:`BrakingGoto` (the jet slows by drag only)."""
+
+
+class BrakingGoto:
+    """The leg to a point that will be orbited, slowed so that the boat arrives at the orbit's
+    speed: ``speed <= sqrt(v_end^2 + 2 a d)``, ``v_end`` the orbit's water speed plus the current
+    along the leg.  In-process lockstep, tuning cells 0.3-0.5 m/s: after-arrival maximum 7.3-10.6 m
+at the leg's corner speed, 5.2-7.8 m braked; RTL 6.0-14.4 -> 6.0-13.7 m."""
+
+    def __init__(self, goto: GotoTask, arrive_speed_mps: float) -> None:
+        self.goto = goto
+        self.frame, self.point, self.end = goto.frame, goto.point, goto.end
+        self.arrive_speed_mps = arrive_speed_mps
+        self.distance_m = math.inf
+        self.cross_track_m = 0.0
+
+    @property
+    def reached(self) -> bool:
+        return self.goto.reached
+
+    def step(self, nav: NavState, dt_s: float) -> ControlTarget:
+        target = self.goto.step(nav, dt_s)
+        self.distance_m, self.cross_track_m = self.goto.distance_m, self.goto.cross_track_m
+        limit = math.sqrt(self.arrive_speed_mps**2 + 2.0 * ARRIVAL_DECEL_MPS2 * self.distance_m)
+        return replace(target, speed_mps=min(target.speed_mps, limit))
+
+
+def goto_task(host: ModeHost, start: tuple[float, float], end: tuple[float, float], speed_mps: float,
+              accept_radius_m: float | None = None) -> GotoTask | ApproachTask | BrakingGoto:
+    """The leg GUIDED/RTL fly to a point they will hold: in a current to be stemmed an
+    :class:`ApproachTask` (arrive bow into it), in a weaker one a :class:`BrakingGoto` (arrive at
+    the orbit's speed), without an estimate the plain :class:`GotoTask`."""
+    est = host.water_current
+    if strategy(host) == HoldStrategy.STATION and est is not None:
+        current = (est.north_mps, est.east_mps)
+        return ApproachTask(host.params, start, end, speed_mps, current, accept_radius_m)
+    goto = GotoTask(host.params, start, end, speed_mps, accept_radius_m)
+    if strategy(host) == HoldStrategy.ORBIT and est is not None:
+        leg_n, leg_e = goto.frame.to_ne(*end)
+        leg_m = max(1e-6, math.hypot(leg_n, leg_e))
+        along = (est.north_mps * leg_n + est.east_mps * leg_e) / leg_m
+        return BrakingGoto(goto, max(0.5, host.params.get("USV_HOLD_ORB_SPD") + along))
+    return goto
+
+
+STOP_WITHIN_M = 1.0
+"""Engine-stop holding: the return leg's acceptance radius (the engine stops there)."""
+RETURN_SPEED_MPS = 2.0
+STOP_SPEED_MPS = 0.8
+"""The return leg brakes to this at the point (returning with the station keeper carried the
+boat past it at 1.3-1.8 m/s and looped 4-7 m out)."""
+
+
+class EngineStopTask:
+    """Slack-water station keeping with the engine off (``USV_HOLD_ESTOP`` 1): drift until the
+    boat is ``USV_HOLD_DRIFT`` from the point, restart and go back along a braked leg
+    (:class:`BrakingGoto` at :data:`RETURN_SPEED_MPS`), stop the engine again when the leg
+    reaches the point (within :data:`STOP_WITHIN_M`, or past it).  :attr:`drifting` says whether
+    the engine is to be off now (the mode then asks for ignition off)."""
+
+    def __init__(self, params: ParamStore, point: tuple[float, float]) -> None:
+        self.params = params
+        self.frame, self.point = LocalFrame(*point), point
+        self.drift_m = params.get("USV_HOLD_DRIFT")
+        self.drifting = True
+        self.returning: BrakingGoto | None = None
+        self.restarts = 0
+        self.distance_m = 0.0
+        self.cross_track_m = 0.0
+
+    def update(self, nav: NavState) -> bool:
+        """Switch between drifting and returning for ``nav``; whether the engine is to be off."""
+        self.distance_m = math.hypot(*self.frame.to_ne(nav.lat_deg, nav.lon_deg))
+        if self.drifting and self.distance_m > self.drift_m:
+            self.drifting = False
+            self.restarts += 1
+            here = (nav.lat_deg, nav.lon_deg)
+            leg = GotoTask(self.params, here, self.point, RETURN_SPEED_MPS, STOP_WITHIN_M)
+            self.returning = BrakingGoto(leg, STOP_SPEED_MPS)
+        elif not self.drifting and self.returning is not None and self.returning.reached:
+            self.drifting = True
+        return self.drifting
+
+    def step(self, nav: NavState, dt_s: float) -> ControlTarget:
+        if self.returning is None:  # drifting: nothing to steer (the mode stops the engine)
+            return ControlTarget(nav.heading_rad, 0.0, is_heading=True)
+        target = self.returning.step(nav, dt_s)
+        self.cross_track_m = self.returning.cross_track_m
+        return target
+
+
+def engine_stop_task(host: ModeHost, point: tuple[float, float], nav: NavState) -> EngineStopTask | None:
+    """An :class:`EngineStopTask` when ``USV_HOLD_ESTOP`` is 1 and the estimate says slack water
+    (below ``USV_HOLD_SLACK``), else ``None``."""
+    params = host.params
+    est = host.water_current
+    if int(params.get("USV_HOLD_ESTOP")) != 1 or est is None or est.speed_mps >= params.get("USV_HOLD_SLACK"):
+        return None
+    return EngineStopTask(params, point)

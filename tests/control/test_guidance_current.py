@@ -1,0 +1,117 @@
+"""Guidance in a current: the current observer, the crab heading, and holding on a circle the boat
+cannot circle in (issue 14)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from companion.guidance.current import CurrentObserver, crab_heading, water_speed_mps
+from companion.guidance.geo import LocalFrame
+from companion.guidance.stem import stem_route
+from companion.guidance.waypoints import drift_lead_m, u_turn_sign
+from companion.messages import NavState
+from companion.modes.navigation import CircleTask
+from companion.param_table import all_param_defs
+from companion.params import ParamStore
+
+
+def _run(obs: CurrentObserver, heading_rad: float, water_mps: float, current: tuple[float, float],
+         seconds: float, r_radps: float = 0.0) -> None:
+    """A boat running straight through the water at ``water_mps`` on ``heading_rad`` in ``current``."""
+    vn = water_mps * math.cos(heading_rad) + current[0]
+    ve = water_mps * math.sin(heading_rad) + current[1]
+    for _ in range(int(seconds / 0.1)):
+        obs.update(vn, ve, heading_rad, r_radps, 0.1)
+
+
+def test_observer_learns_the_current_from_two_legs_and_skips_turns() -> None:
+    current = (0.3, -1.1)
+    obs = CurrentObserver()
+    _run(obs, 0.0, 4.0, current, 30.0)
+    assert not obs.converged  # one heading sees only the component across it
+    assert obs.east_mps == pytest.approx(-1.1, abs=0.02)
+    _run(obs, math.pi / 2, 4.0, current, 30.0)
+    assert obs.converged
+    assert obs.north_mps == pytest.approx(0.3, abs=0.02) and obs.east_mps == pytest.approx(-1.1, abs=0.03)
+    before = obs.current_ne_mps
+    _run(obs, 1.0, 4.0, (2.0, 2.0), 20.0, r_radps=0.5)  # turning: sideslip, not current
+    assert obs.current_ne_mps == before
+
+
+@given(st.floats(0.0, 2 * math.pi), st.floats(2.0, 6.0), st.floats(-1.2, 1.2), st.floats(-1.2, 1.2))
+def test_crab_heading_makes_good_the_course(course: float, water: float, cn: float, ce: float) -> None:
+    psi = crab_heading(course, water, (cn, ce))
+    vn, ve = water * math.cos(psi) + cn, water * math.sin(psi) + ce
+    # the velocity over ground has no component across the desired course
+    assert -vn * math.sin(course) + ve * math.cos(course) == pytest.approx(0.0, abs=1e-9)
+    assert water_speed_mps(vn, ve, (cn, ce)) == pytest.approx(water)
+
+
+@pytest.mark.parametrize("pos", [(-14.0, 3.0), (14.0, -3.0), (0.0, -15.0), (3.0, 15.0), (-10.0, -10.0)])
+def test_stem_route_ends_on_the_circle_across_the_current_without_crossing_it(
+        pos: tuple[float, float]) -> None:
+    current = (0.0, 1.2)  # toward east
+    abeam, hold = stem_route((0.0, 0.0), 2.0, current, pos)
+    assert math.hypot(*hold) == pytest.approx(2.0)
+    assert hold[1] == pytest.approx(0.0, abs=1e-9)  # across the current from the centre
+    assert math.copysign(1.0, hold[0]) == math.copysign(1.0, pos[0] or 1.0)  # on the boat's side
+    for k in range(101):  # the ferry from abeam to the hold point stays outside the circle
+        t = k / 100
+        n, e = abeam[0] + t * (hold[0] - abeam[0]), abeam[1] + t * (hold[1] - abeam[1])
+        assert math.hypot(n, e) >= 2.0 - 1e-9
+
+
+def _nav(frame: LocalFrame, n: float, e: float, vn: float, ve: float) -> NavState:
+    lat, lon = frame.to_lat_lon(n, e)
+    return NavState(t_s=0.0, lat_deg=lat, lon_deg=lon, alt_m=0.0, heading_rad=math.atan2(ve, vn),
+                    roll_rad=0.0, pitch_rad=0.0, vel_north_mps=vn, vel_east_mps=ve,
+                    u_mps=math.hypot(vn, ve), v_mps=0.0,
+                    r_radps=0.0)
+
+
+@pytest.mark.parametrize(("current_mps", "holds"), [(1.2, True), (0.4, False)])
+def test_circle_item_holds_on_the_circle_only_in_a_current_it_cannot_circle_in(current_mps: float,
+                                                                              holds: bool) -> None:
+    params = ParamStore(all_param_defs())
+    obs = CurrentObserver()
+    _run(obs, 0.0, 3.0, (0.0, current_mps), 30.0)
+    _run(obs, math.pi / 2, 3.0, (0.0, current_mps), 30.0)
+    point = (41.77, 123.43)
+    task = CircleTask(params, point, 2.0, drift=obs)
+    frame = LocalFrame(*point)
+    target = task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    assert (task.stem is not None) is holds
+    if holds:
+        assert task.stem is not None
+        assert task.stem.hold_ne[0] == pytest.approx(-2.0, abs=0.05)  # the south point, the boat's side
+        assert not target.hold_station  # first the leg abeam of the circle
+    params.set("USV_CIRC_HOLD_C", 0.0)  # 0: always circle
+    again = CircleTask(params, point, 2.0, drift=obs)
+    again.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    assert again.stem is None
+
+
+@pytest.mark.parametrize(("heading_deg", "inside", "sign"), [(180.0, 1.0, -1.0), (180.0, -1.0, 1.0),
+                                                             (170.0, 1.0, -1.0), (190.0, -1.0, 1.0)])
+def test_u_turn_onto_a_leg_turns_toward_the_inside_of_the_route(heading_deg: float, inside: float,
+                                                                  sign: float) -> None:
+    # leg north; facing (about) south; the next corner turns right (inside = east) or left (west)
+    s = u_turn_sign(math.radians(heading_deg), 0.0, inside)
+    assert s == sign
+    # the turning circle's centre (at heading + s * 90 deg) lies on the inside of the leg
+    centre_east = math.sin(math.radians(heading_deg) + s * math.pi / 2)
+    assert centre_east * inside > 0
+
+
+def test_corner_starts_earlier_when_the_current_sets_the_boat_past_the_new_leg() -> None:
+    east_leg, south_leg = ((50.0, 0.0), (50.0, 50.0)), (0.0, 50.0)
+    # current toward east (along the old leg, across the new one, away from the route): turn earlier
+    assert drift_lead_m(*east_leg, south_leg, (0.0, 1.2), 3.0) == pytest.approx(3.6)
+    # the same current on the next corner (south leg -> west leg) is along the new leg: no change
+    assert drift_lead_m((50.0, 50.0), (0.0, 50.0), (0.0, 0.0), (0.0, 1.2), 3.0) == pytest.approx(0.0)
+    # current toward west on the first corner: it sets the boat back from the new leg, turn later
+    assert drift_lead_m(*east_leg, south_leg, (0.0, -0.5), 3.0) == pytest.approx(-1.5)

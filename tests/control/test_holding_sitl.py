@@ -1,0 +1,99 @@
+"""Holding a point in a current on the full companion stack (lockstep SITL, issue 14): the
+strategy is picked from the estimate the moment the boat starts holding, with no exploratory
+loops, and a strong current is stemmed from the arrival on."""
+
+from __future__ import annotations
+
+import math
+
+from companion.guidance.geo import LocalFrame
+from companion.messages import GuidedTarget
+from companion.modes.holding import CurrentStationTask, OrbitTask
+from sim_bridge.sitl import SitlHarness
+
+HOME = (41.77, 123.43)
+
+
+def _pos(h: SitlHarness) -> tuple[float, float]:
+    return h.plant.state.north_m, h.plant.state.east_m
+
+
+async def test_guided_arrival_and_loiter_in_a_flood_stem_the_current() -> None:
+    """1.2 m/s across the go-to leg, 3 m/s wind: GUIDED arrives from downstream bow into the
+    current (main: 13 m past the point and back), then LOITER keeps station from its entry."""
+    async with SitlHarness(seed=4, current="1.2,90", wind="3,270", full_stack=True) as h:
+        await h.run_for(20.0)  # the estimator finds the current while the boat drifts
+        vehicle = h.services.vehicle
+        assert vehicle.arm() is None
+        goal = (30.0, 30.0)
+        assert vehicle.set_mode(15) is None
+        vehicle.guided_target = GuidedTarget(*LocalFrame(*HOME).to_lat_lon(*goal), t_s=h.ctx.clock.now_s())
+        start = _pos(h)
+        unit = [(g - s) / math.dist(goal, start) for g, s in zip(goal, start, strict=True)]
+        past = 0.0
+        for _ in range(120):
+            await h.run_for(0.5)
+            n, e = _pos(h)
+            past = max(past, (n - goal[0]) * unit[0] + (e - goal[1]) * unit[1])
+        assert isinstance(vehicle.modes.current.task, CurrentStationTask)
+        assert past < 6.0  # how far it ran past the point along the approach (measured 3.0-3.5 m)
+        assert math.dist(_pos(h), goal) < 2.0
+        entry = _pos(h)
+        assert vehicle.set_mode(5) is None
+        assert isinstance(vehicle.modes.current.task, CurrentStationTask)  # at once
+        dists = []
+        for _ in range(60):
+            await h.run_for(0.5)
+            dists.append(math.dist(_pos(h), entry))
+        assert max(dists) < 1.5 and isinstance(vehicle.modes.current.task, CurrentStationTask)
+
+
+async def test_loiter_in_a_weak_current_orbits_from_the_start() -> None:
+    """0.4 m/s, weaker than the jet's 0.7 m/s idle creep, LOITER entered from CRUISE at 2 m/s:
+    it orbits the entry point at once and settles within USV_TURN_RAD + 0.5 m of it (measured
+    1.7-2.4 m).  The entry at speed is still a wide swing: 12.8 m (USV_HOLD_MODE 0, the
+    behaviour before: 22.2 m, kept station first and orbited after the creep was seen)."""
+    async with SitlHarness(seed=3, current="0.4,0", full_stack=True) as h:
+        vehicle = h.services.vehicle
+        await h.run_for(2.0)
+        assert vehicle.arm() is None
+        assert vehicle.set_mode(20) is None  # CRUISE: make way so the current is observed
+        vehicle.speed_override_mps = 2.0
+        await h.run_for(40.0)
+        entry = _pos(h)
+        assert vehicle.set_mode(5) is None
+        assert isinstance(vehicle.modes.current.task, OrbitTask)
+        dists = []
+        for _ in range(120):
+            await h.run_for(0.5)
+            dists.append(math.dist(_pos(h), entry))
+            assert isinstance(vehicle.modes.current.task, OrbitTask)
+        settled = dists[60:]
+        assert max(dists) < 16.0 and min(settled) > 1.0 and max(settled) < 2.8
+
+
+async def test_loiter_in_slack_water_can_stop_the_engine_and_drift() -> None:
+    """USV_HOLD_ESTOP 1, slack water with a 4 m/s breeze: LOITER stops the engine, lets the boat
+    drift to USV_HOLD_DRIFT (3 m), restarts, comes back and stops again (off by default).  Measured:
+    engine off about a third of the time, up to 7.6 m from the point (the restart and the turn
+    back); HOLD drifts about 0.4 m/s, 50 m in these two minutes."""
+    async with SitlHarness(seed=2, current="0,0", wind="4,0", full_stack=True,
+                           params={"USV_HOLD_ESTOP": 1}) as h:
+        vehicle = h.services.vehicle
+        await h.run_for(2.0)
+        assert vehicle.arm() is None
+        assert vehicle.set_mode(20) is None  # CRUISE a while: the estimator sees slack water
+        vehicle.speed_override_mps = 1.0
+        await h.run_for(30.0)
+        assert vehicle.set_mode(4) is None  # HOLD: coast to a stop first
+        await h.run_for(15.0)
+        entry = _pos(h)
+        assert vehicle.set_mode(5) is None
+        off_s, dists, restarted = 0.0, [], False
+        for _ in range(240):
+            await h.run_for(0.5)
+            dists.append(math.dist(_pos(h), entry))
+            off_s += 0.5 * (not h.plant.state.engine_running)
+            restarted |= h.plant.state.engine_running and off_s > 0.0
+        assert off_s > 25.0 and restarted  # drifted with the engine off, and came back under power
+        assert max(dists) < 9.0
