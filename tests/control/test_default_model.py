@@ -13,7 +13,7 @@ import pytest
 from benchmarks.control_ident import DEFAULT_MODEL_PROTOCOL, identify_default_model, shipped_model
 from companion.models.params_file import DEFAULT_PARAMS_PATH, load_model_params, load_ukf_settings
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.timeout(900)]  # minutes of identification: slow on a busy machine
 
 
 def test_shipped_default_model_is_reproduced_by_the_identification_commands(tmp_path: Path) -> None:
