@@ -8,6 +8,7 @@ and issues come from full runs (``usv bench``).
 BENCHMARKS: dict[str, str] = {
     "mavlink_codec": "benchmarks.mavlink_codec",
     "mavlink_link": "benchmarks.mavlink_link",
+    "fence_legs": "benchmarks.fence_legs",
     "ukf": "benchmarks.ukf",
     "identify": "benchmarks.identify",
     "sim_plant": "benchmarks.sim_plant",
@@ -16,5 +17,8 @@ BENCHMARKS: dict[str, str] = {
     "control": "benchmarks.control",
     "nav": "benchmarks.nav",
     "campaign": "benchmarks.campaign",
+    "fuzz": "benchmarks.fuzz",
+    "lossy_link": "benchmarks.lossy_sweep",
+    "mqtt": "benchmarks.mqtt",
 }
 """Benchmark name -> module with ``run(quick: bool) -> dict``."""

@@ -129,6 +129,23 @@ def check_serial(text: str) -> str | None:
     return None
 
 
+def check_mqtt_url(text: str) -> str | None:
+    """Why ``text`` is not ``mqtt://HOST[:PORT]`` / ``mqtts://HOST[:PORT]``, or None."""
+    scheme, sep, rest = text.partition("://")
+    if not sep or scheme not in ("mqtt", "mqtts"):
+        return "expected mqtt://HOST[:PORT] or mqtts://HOST[:PORT]"
+    if "@" in rest or "/" in rest.rstrip("/"):
+        return "no credentials or path in the URL (use mqtt.username / mqtt.password_file)"
+    host, colon, port = rest.rstrip("/").rpartition(":")
+    if not colon:
+        host, port = rest.rstrip("/"), ""
+    if not host:
+        return "missing host"
+    if port and (not port.isdigit() or not 1 <= int(port) <= 65535):
+        return "port must be 1..65535"
+    return None
+
+
 def default_state_dir() -> str:
     base = os.environ.get("XDG_STATE_HOME") or str(Path.home() / ".local" / "state")
     return str(Path(base) / "usv")
@@ -177,6 +194,41 @@ SETTINGS: tuple[Setting, ...] = (
             "MAV_RESULT_DENIED / MAV_MISSION_DENIED and a STATUSTEXT.", kind=list, item_kind=int,
             accepted="a list of integers 1..255",
             item_check=lambda v: None if 1 <= v <= 255 else "system ids are 1..255"),
+    Setting("mqtt.url", "",
+            "MQTT broker for dashboards: 'mqtt://HOST[:PORT]' (1883) or 'mqtts://HOST[:PORT]' (TLS, 8883); "
+            "empty: no MQTT (nothing needs a broker).",
+            accepted="'mqtt://HOST[:PORT]', 'mqtts://HOST[:PORT]' or ''",
+            item_check=lambda v: None if v == "" else check_mqtt_url(v)),
+    Setting("mqtt.vehicle_id", "",
+            "The <vehicle_id> of the topics usv/<vehicle_id>/...; empty: 'usv' and SYSID_THISMAV (usv1).",
+            accepted="letters, digits, '-' and '_' (or '')",
+            item_check=lambda v: None if v == "" or v.replace("-", "").replace("_", "").isalnum()
+            else "only letters, digits, '-' and '_'"),
+    Setting("mqtt.username", "", "MQTT user name (empty: connect without credentials)."),
+    Setting("mqtt.password_file", "",
+            "File holding the MQTT password (first line), readable by its owner only (chmod 600).",
+            accepted="a file path or ''"),
+    Setting("mqtt.tls_ca_file", "",
+            "CA certificate(s) that sign the broker's certificate (mqtts://; empty: the system's CAs).",
+            accepted="a file path or ''"),
+    Setting("mqtt.tls_cert_file", "", "Client certificate for brokers that want one (mqtts://).",
+            accepted="a file path or ''"),
+    Setting("mqtt.tls_key_file", "", "Private key of tls_cert_file.", accepted="a file path or ''"),
+    Setting("mqtt.tls_insecure", False,
+            "Do not check the broker's host name against its certificate (test brokers only).", kind=bool),
+    Setting("mqtt.reconnect_max_s", 30.0,
+            "Longest wait between reconnection attempts (the wait doubles from 1 s up to this; wall clock).",
+            kind=float, min=1.0, max=3600.0),
+    Setting("mqtt.commands", False,
+            "Accept commands on usv/<vehicle_id>/cmd (off by default).  Needs command_token_file and "
+            "a broker user name; only the commands in command_allowlist run.", kind=bool),
+    Setting("mqtt.command_token_file", "",
+            "File holding the secret every MQTT command must carry as 'token' (first line, at least 16 "
+            "characters, chmod 600).", accepted="a file path or ''"),
+    Setting("mqtt.command_allowlist", ["RTL", "HOLD", "STOP_PUMP"],
+            "Commands accepted over MQTT (a subset of RTL, HOLD, STOP_PUMP).", kind=list,
+            accepted="a list of 'RTL', 'HOLD', 'STOP_PUMP'",
+            item_check=lambda v: None if v in ("RTL", "HOLD", "STOP_PUMP") else "unknown command"),
     Setting("sensors.gnss_port", "",
             "Serial device of the GPS-INS (XW-GI5630); empty in SITL, where the simulator feeds "
             "the same parser.", accepted="a device path or ''"),

@@ -250,6 +250,39 @@ class ManualControlInput:
     """0..1 from ``z / 1000`` (negative z is idle: no reverse on a water jet)."""
 
 
+@dataclass(frozen=True, slots=True)
+class FenceState:
+    """The geofence as the operator sees it (SYS_STATUS geofence bits, FENCE_STATUS)."""
+
+    t_s: float
+    present: bool
+    """A FENCE plan with at least one zone is stored."""
+    enabled: bool
+    """FENCE_ENABLE = 1."""
+    breached: bool
+    """In a breach episode: the boat or its predicted stop point within FENCE_MARGIN of a boundary."""
+    breach_count: int
+    breach_time_s: float | None
+    """Clock time the last breach episode began."""
+    clearance_m: float
+    """Distance to the nearest boundary (negative: outside); inf without zones."""
+
+
+@dataclass(frozen=True, slots=True)
+class NavHealthState:
+    """What the GPS-INS checks of the NavHealth stage found (SYS_STATUS health bits)."""
+
+    t_s: float
+    gps_ok: bool
+    """A fresh GNSS fix with finite, changing values."""
+    ins_ok: bool
+    """Attitude and rates fresh, finite and not frozen."""
+    fault: str
+    """What is wrong (empty when both are fine)."""
+    degraded_action: str = ""
+    """The degraded mode in force: "dead reckoning", "hold", "engine stop" or empty."""
+
+
 NAV_TOPIC = TopicKey("nav", NavState)
 """Every GPS-INS sample (published by the pipeline before its stages run)."""
 ENGINE_TOPIC = TopicKey("engine", EngineState)
@@ -271,10 +304,14 @@ PAYLOAD_CMD_TOPIC = TopicKey("payload_cmd", PayloadCommand)
 channels read it for every frame, observers (logs, tests) see it here."""
 MANUAL_CONTROL_TOPIC = TopicKey("manual_control", ManualControlInput)
 """MAVLink MANUAL_CONTROL from a ground station (:mod:`companion.mavlink.manual_control`)."""
+FENCE_TOPIC = TopicKey("fence", FenceState)
+"""Published by the geofence stage (:mod:`companion.fence.guard`) at its check rate."""
+NAV_HEALTH_TOPIC = TopicKey("nav_health", NavHealthState)
+"""Published by the NavHealth stage when the GPS-INS health changes and at 1 Hz."""
 
 TOPICS: tuple[TopicKey[Any], ...] = (
     NAV_TOPIC, ENGINE_TOPIC, ACTUATOR_CMD_TOPIC, SERVO_OUT_TOPIC, RC_IN_TOPIC, SETPOINT_TOPIC,
     MODEL_ERROR_TOPIC, WATER_CURRENT_TOPIC, STATUS_TEXT_TOPIC, VEHICLE_STATUS_TOPIC, PAYLOAD_SENSORS_TOPIC,
-    PAYLOAD_CMD_TOPIC, MANUAL_CONTROL_TOPIC,
+    PAYLOAD_CMD_TOPIC, MANUAL_CONTROL_TOPIC, FENCE_TOPIC, NAV_HEALTH_TOPIC,
 )
 """Every topic of the product."""

@@ -29,11 +29,15 @@ def all_param_defs(extra_payloads: Sequence[PayloadDef] = ()) -> tuple[ParamDef,
     place, those of ``extra_payloads`` (added to a vehicle, e.g. a test fixture) at the end."""
     from companion.actuators.params import PARAMS as ACTUATOR_PARAMS
     from companion.control.params import PARAMS as CONTROL_PARAMS
+    from companion.fence.params import PARAMS as FENCE_PARAMS
     from companion.guidance.hold_params import PARAMS as HOLD_PARAMS
     from companion.guidance.params import PARAMS as GUIDANCE_PARAMS
     from companion.link.params import PARAMS as LINK_PARAMS
     from companion.mavlink.params import PARAMS as MAVLINK_PARAMS
+    from companion.mqtt.params import PARAMS as MQTT_PARAMS
+    from companion.navhealth.params import PARAMS as NAVHEALTH_PARAMS
     from companion.payloads.registry import built_in_payloads, payload_params
 
     return (CORE_PARAMS + GUIDANCE_PARAMS + CONTROL_PARAMS + payload_params(built_in_payloads())
-            + MAVLINK_PARAMS + ACTUATOR_PARAMS + LINK_PARAMS + HOLD_PARAMS + payload_params(extra_payloads))
+            + MAVLINK_PARAMS + ACTUATOR_PARAMS + LINK_PARAMS + HOLD_PARAMS + FENCE_PARAMS + NAVHEALTH_PARAMS
+            + MQTT_PARAMS + payload_params(extra_payloads))

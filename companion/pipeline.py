@@ -5,12 +5,18 @@ synchronous pass through these stages, each a plain method call that RETURNS its
 the next:
 
 1. **sample** -- the :class:`~companion.messages.NavState` from the GPS-INS parser
-   (:mod:`companion.sensors.gpsins`);
+   (:mod:`companion.sensors.gpsins`), first checked by **NavHealth**
+   (:class:`~companion.navhealth.stage.NavHealth`): GPS loss is flown on the INS dead reckoning
+   for a bounded time; a sample that cannot steer (frozen solution, stale IMU) goes no further
+   and the frame carries the degraded action's command;
 2. **estimator** -- the qLPV model + UKF of Eq. 5-11 (:class:`~companion.estimation.service.
    EstimatorStage`): the model error delta_nu, given the actuator command applied since the
    last sample; handed to the controller (:meth:`ControlSystem.use_model_error`), and with the
    current-augmented filter the water current (:meth:`ControlSystem.use_current`, which guidance
    reads as ``control.water_current``);
+2b. **fence** -- the geofence (:class:`~companion.fence.guard.FenceGuard`): the boat and its
+   predicted stop point against the FENCE plan; a new breach switches the mode (FENCE_ACTION)
+   before the mode computes this sample's command;
 3. **modes** -- the active mode (:class:`~companion.modes.manager.ModeManager`, run against the
    vehicle): its target (mission item, guided point, loiter point, pilot sticks) through
    guidance (LOS path following, circle, station keeping), returned as a
@@ -77,6 +83,18 @@ class Estimator(Protocol):
 
 ModesStage = Callable[[NavState], ControlRequest | ActuatorCommand | None]
 """Stage 3: what the active mode asks of the controller for one sample."""
+
+
+class NavCheck(Protocol):
+    """Stage 1: the GPS-INS health check (:class:`~companion.navhealth.stage.NavHealth`)."""
+
+    def check(self, nav: NavState) -> NavState | None: ...
+
+    def fallback(self, now_s: float) -> ActuatorCommand | None: ...
+
+
+GuardStage = Callable[[NavState], None]
+"""Stage 2b: a check of the sample that may change the vehicle's mode (the geofence)."""
 
 
 class Controller(Protocol):
@@ -151,6 +169,7 @@ class ServoOutput:
 class Pipeline:
     """The synchronous sample -> estimator -> modes -> controller -> servo frame pass (module doc).
 
+    ``fence``: the geofence stage (``None``: no fence checks, as on the bare hardware seam).
     ``estimator`` and ``controller`` are ``None`` on the bare hardware seam, where ``modes`` is a
     test's or a benchmark's function returning actuator commands.  ``mode_failed`` is told when
     the controller raises on a mode's request (the vehicle then falls back to HOLD, as for a
@@ -159,8 +178,11 @@ class Pipeline:
 
     def __init__(self, *, bus: Bus, estimator: Estimator | None, modes: ModesStage,
                  controller: Controller | None, output: ServoOutput,
-                 mode_failed: Callable[[Exception], None] | None = None) -> None:
+                 mode_failed: Callable[[Exception], None] | None = None,
+                 fence: GuardStage | None = None, nav_health: NavCheck | None = None) -> None:
+        self.nav_health = nav_health
         self.estimator = estimator
+        self.fence = fence
         self.modes = modes
         self.controller = controller
         self.output = output
@@ -180,6 +202,9 @@ class Pipeline:
         self.stats.samples += 1
         self.last_sample_s = nav.t_s
         self._t = time.perf_counter()
+        if self.nav_health is not None and self._checked(nav) is None:  # 1. unusable sample
+            self._use_fallback(nav.t_s)
+            return self.output.write(self.last_command, ack)
         self._nav.publish(nav)  # 1. sample (observers: home position, telemetry, payloads)
         self._lap("nav_publish")
         controller = self.controller
@@ -194,6 +219,8 @@ class Pipeline:
                     self._current.publish(current)
                     if controller is not None:
                         controller.use_current(current)
+        if self.fence is not None:  # 2b. geofence: a predicted breach changes the mode first
+            self._stage("fence", None, self.fence, nav)
         request = self._stage("modes", None, self.modes, nav)  # 3. the active mode's target
         command: ActuatorCommand | None = None
         if not isinstance(request, ControlRequest):  # HOLD's own command, a seam driver's, or None
@@ -206,8 +233,32 @@ class Pipeline:
         return self.output.write(self.last_command, ack)  # 5. one servo frame
 
     def refresh(self) -> ServoOutputs:
-        """Write the frame of the command in force again (no sample: the 10 Hz refresh)."""
+        """Write the frame of the command in force again (no sample: the 10 Hz refresh), or the
+        navigation fault's command once NavHealth declares the GPS-INS silent."""
+        if self.nav_health is not None:
+            self._use_fallback(self.output.clock.now_s())
         return self.output.write(self.last_command)
+
+    def _checked(self, nav: NavState) -> NavState | None:
+        """NavHealth's verdict on ``nav`` (a failing check passes the sample on, counted)."""
+        assert self.nav_health is not None
+        try:
+            return self.nav_health.check(nav)
+        except Exception:
+            errors = self.stats.stage_errors
+            errors["nav_health"] = errors.get("nav_health", 0) + 1
+            if errors["nav_health"] <= 3:
+                log.exception("pipeline stage nav_health failed")
+            return nav
+        finally:
+            self._lap("nav_health")
+
+    def _use_fallback(self, now_s: float) -> None:
+        assert self.nav_health is not None
+        command = self._stage("nav_fallback", None, self.nav_health.fallback, now_s)
+        if command is not None:
+            self.last_command = command
+            self._command.publish(command)
 
     def _stage(self, name: str, on_error: Callable[[Exception], None] | None, fn: Callable[P, R],
                *args: P.args, **kwargs: P.kwargs) -> R | None:

@@ -28,6 +28,8 @@ from companion.estimation.service import (
     load_companion_ukf_backend,
     load_companion_ukf_settings,
 )
+from companion.fence.guard import FenceGuard
+from companion.fence.plans import FencePlanCheck
 from companion.hardware import HardwareIoService, HardwareLinks
 from companion.link.manager import LinkManager
 from companion.mavlink.commands import CommandRegistry
@@ -37,9 +39,18 @@ from companion.mission.cursor import MissionCursor
 from companion.mission.store import MissionStore
 from companion.mission.validate import ItemRule, MissionValidator
 from companion.modes.manager import MODE_CLASSES, ModeManager
+from companion.mqtt.commands import CommandTarget, MqttCommands
+from companion.mqtt.outbox import OUTBOX_NAME, Outbox
+from companion.mqtt.records import RecordFeed
+from companion.mqtt.service import MqttService
+from companion.mqtt.settings import mqtt_settings
+from companion.mqtt.snapshot import StateSnapshot
+from companion.navhealth.stage import NavHealth
 from companion.param_table import all_param_defs
 from companion.params import ParamStore
+from companion.payloads.launcher.device import RopeLauncher
 from companion.payloads.registry import PayloadDef, PayloadRegistry, built_in_payloads
+from companion.payloads.sampler.device import WaterSampler
 from companion.pipeline import LoopStats, Pipeline, ServoOutput
 from companion.vehicle import Vehicle, home_placeholder_profile
 
@@ -83,16 +94,25 @@ class Services:
     """PID / active-model controller families and the actuator mapping (stage 4 of the pipeline)."""
     vehicle: Vehicle
     """Arming, home, targets, modes (stage 3 of the pipeline) and mission progress."""
+    fence: FenceGuard
+    """The geofence (stage 2b of the pipeline), target and pre-arm checks."""
+    fence_plans: FencePlanCheck
+    """The stored mission and rally points re-checked when the fence changes; AUTO refused on conflict."""
+    nav_health: NavHealth
+    """GPS-INS fault detection and the degraded action (stage 1 of the pipeline)."""
     pipeline: Pipeline
     """The 100 Hz path: sample -> estimator -> modes -> controller -> servo frame."""
     mavlink: MavlinkService
     """Everything the vehicle says and answers on its links."""
     hardware: HardwareIoService
     """GPS-INS in, servo frames out."""
+    mqtt: MqttService | None = None
+    """Telemetry, records and events for MQTT dashboards (``None``: no ``[mqtt] url``)."""
 
     def in_start_order(self) -> list[Service]:
         """The services with a life cycle, in start-up order (stopped in reverse)."""
-        return [self.links, self.mavlink, self.payloads, self.hardware]
+        extra: list[Service] = [self.mqtt] if self.mqtt is not None else []
+        return [self.links, self.mavlink, self.payloads, *extra, self.hardware]
 
 
 def build_companion(ctx: Context, hardware: HardwareLinks | None = None,
@@ -115,19 +135,44 @@ def build_companion(ctx: Context, hardware: HardwareLinks | None = None,
     profile = str(config["vehicle.profile"])
     mission = MissionCursor(MissionStore(config.state_dir() / "missions"), home_placeholder_profile(profile))
     vehicle = Vehicle(ctx, mission, ModeManager(MODE_CLASSES), control, actions)
+    fence = FenceGuard(params, clock, bus, vehicle, mission.store)
+    nav_health = NavHealth(params, clock, bus, vehicle)
     # the 100 Hz pipeline: sample -> estimator -> modes -> controller -> servo frame
     servo_map = ServoMap(params, payloads.servo_channels, overrides_us=vehicle.servo_overrides_us)
     output = ServoOutput(servo_map, clock, bus, LoopStats())
     pipeline = Pipeline(bus=bus, estimator=estimator, modes=vehicle.update_mode, controller=control,
-                        output=output, mode_failed=vehicle.mode_failed)
+                        output=output, mode_failed=vehicle.mode_failed, fence=fence.step,
+                        nav_health=nav_health)
     # the MAVLink face and the hardware seam
     telemetry = Telemetry(ctx, vehicle, {s.msg_id: s.build for s in payloads.status_messages})
     validator = MissionValidator({a.command: ItemRule(a.needs_position, a.check) for a in actions.values()})
+    fence_plans = FencePlanCheck(params, vehicle, mission.store, validator.needs_position)
     mavlink = MavlinkService(ctx, links, vehicle, commands, telemetry, validator, servo_map)
     hardware_io = HardwareIoService(ctx, pipeline, hardware, payloads.sentences)
+    # MQTT dashboards, only when configured
+    mqtt = build_mqtt(ctx, vehicle, links, payloads)
     return Services(ctx=ctx, payloads=payloads, links=links, commands=commands, estimator=estimator,
-                    control=control, vehicle=vehicle, pipeline=pipeline, mavlink=mavlink,
-                    hardware=hardware_io)
+                    control=control, vehicle=vehicle, fence=fence, fence_plans=fence_plans,
+                    nav_health=nav_health, pipeline=pipeline, mavlink=mavlink,
+                    hardware=hardware_io, mqtt=mqtt)
+
+
+def build_mqtt(ctx: Context, vehicle: Vehicle, links: LinkManager,
+               payloads: PayloadRegistry) -> MqttService | None:
+    """The MQTT service of ``[mqtt]`` (``None`` without ``mqtt.url``: nothing needs a broker)."""
+    settings = mqtt_settings(ctx.config, ctx.params.get_int("SYSID_THISMAV"))
+    if settings is None:
+        return None
+    launcher, sampler = payloads.find(RopeLauncher), payloads.find(WaterSampler)
+    snapshot = StateSnapshot(ctx, vehicle, links, launcher, sampler)
+    outbox = Outbox(ctx.config.state_dir() / OUTBOX_NAME)
+    feed = RecordFeed(ctx, outbox, payloads.samplelog.path)
+    commands = None
+    if settings.commands_enabled:
+        stop_pump = sampler.stop_pump if sampler is not None else None
+        target = CommandTarget(vehicle.set_mode, stop_pump, vehicle.status)
+        commands = MqttCommands(settings, target)
+    return MqttService(ctx, settings, snapshot, outbox, feed, commands)
 
 
 class ReadyBanner(BaseService):

@@ -35,13 +35,15 @@ from companion.messages import (
 )
 from companion.mission.cursor import MissionCursor, MissionState
 from companion.mission.items import MissionItem
+from companion.mission.route import LatLon, Legs, LegsCheck
 from companion.mission.store import MissionStore
 from companion.modes.auto_items import MissionAction
 from companion.modes.base import ModeOutput
 from companion.modes.manager import ModeManager
 from companion.params import ParamStore
 
-__all__ = ["FORCE_MAGIC", "NAV_STALE_S", "MissionState", "PrearmCheck", "Vehicle", "home_placeholder_profile"]
+__all__ = ["FORCE_MAGIC", "NAV_STALE_S", "DestinationCheck", "MissionState", "ModeCheck", "PrearmCheck",
+           "Vehicle", "home_placeholder_profile"]
 
 log = logging.getLogger(__name__)
 
@@ -52,6 +54,10 @@ FORCE_MAGIC = 21196
 """param2 of MAV_CMD_COMPONENT_ARM_DISARM that forces arming/disarming (ArduPilot, PX4)."""
 
 PrearmCheck = Callable[["Vehicle"], str | None]
+DestinationCheck = Callable[[float, float], str | None]
+"""``check(lat_deg, lon_deg)``: why the boat may not be sent there (e.g. the geofence), or ``None``."""
+ModeCheck = Callable[["Vehicle", int], str | None]
+"""``check(vehicle, mode_number)``: why the vehicle may not enter that mode now, or ``None``."""
 
 
 def home_placeholder_profile(profile: str) -> bool:
@@ -77,6 +83,9 @@ class Vehicle:
         self.guided_target: GuidedTarget | None = None
         self.speed_override_mps: float | None = None
         self.failsafe_reason: str | None = None
+        self.ins_fault: str | None = None
+        """Set by NavHealth while the GPS-INS cannot steer the boat (frozen, stale IMU, no data):
+        :meth:`nav` is then ``None``, so navigating modes and position commands are refused."""
         self.servo_overrides_us: dict[int, int] = {}
         """DO_SET_SERVO / DO_SET_RELAY: free output channel (1-based) -> pulse width; the servo
         map writes these into every frame (see :mod:`companion.actuators.overrides`)."""
@@ -86,6 +95,9 @@ class Vehicle:
         self._prearm_checks: list[tuple[str, PrearmCheck]] = [
             ("position", _check_position), ("attitude", _check_attitude),
         ]
+        self._destination_checks: list[tuple[str, DestinationCheck]] = []
+        self._leg_checks: list[tuple[str, LegsCheck]] = []
+        self._mode_checks: list[tuple[str, ModeCheck]] = []
         self.home_listeners: list[Callable[[Home], None]] = []
         self.status_listeners: list[Callable[[], None]] = []
         self._nav = ctx.bus.topic(NAV_TOPIC)
@@ -116,7 +128,7 @@ class Vehicle:
     def nav(self) -> NavState | None:
         """The latest navigation solution, or ``None`` if there is none or it is stale."""
         nav = self._nav.latest()
-        if nav is None or self.ctx.clock.now_s() - nav.t_s > NAV_STALE_S:
+        if nav is None or self.ins_fault is not None or self.ctx.clock.now_s() - nav.t_s > NAV_STALE_S:
             return None
         return nav
 
@@ -166,6 +178,75 @@ class Vehicle:
                 reasons.append(reason)
         return reasons
 
+    def add_destination_check(self, name: str, check: DestinationCheck) -> None:
+        """Add a check of every place the boat is sent to (GUIDED targets, mission items)."""
+        self._destination_checks = [(n, c) for n, c in self._destination_checks if n != name]
+        self._destination_checks.append((name, check))
+
+    def destination_problem(self, lat_deg: float, lon_deg: float) -> str | None:
+        """Why the boat may not be sent to (``lat_deg``, ``lon_deg``), or ``None``."""
+        for name, check in self._destination_checks:
+            try:
+                reason = check(lat_deg, lon_deg)
+            except Exception as exc:
+                log.exception("destination check %s failed", name)
+                reason = f"{name} check failed ({exc})"
+            if reason:
+                return reason
+        return None
+
+    def add_leg_check(self, name: str, check: LegsCheck) -> None:
+        """Add a check of the straight legs the boat is sent along (mission legs, the way to a GUIDED
+        target): ``check(legs)`` returns the first refused leg's index and why."""
+        self._leg_checks = [(n, c) for n, c in self._leg_checks if n != name]
+        self._leg_checks.append((name, check))
+
+    def legs_problem(self, legs: Legs) -> tuple[int, str] | None:
+        """The first of the (start, end) legs (lat, lon) the boat may not drive straight, and why."""
+        first: tuple[int, str] | None = None
+        for name, check in self._leg_checks:
+            try:
+                found = check(legs)
+            except Exception as exc:
+                log.exception("leg check %s failed", name)
+                found = (0, f"{name} check failed ({exc})") if legs else None
+            if found is not None and (first is None or found[0] < first[0]):
+                first = found
+        return first
+
+    def leg_problem(self, start: LatLon, end: LatLon) -> str | None:
+        """Why the boat may not drive straight from ``start`` to ``end`` (lat, lon), or ``None``."""
+        found = self.legs_problem([(start, end)])
+        return None if found is None else found[1]
+
+    def target_problem(self, lat_deg: float, lon_deg: float) -> str | None:
+        """Why the boat may not be sent to (``lat_deg``, ``lon_deg``) now: the place itself, then the
+        straight way there from the boat (ArduPilot Rover does not plan around obstacles)."""
+        if (reason := self.destination_problem(lat_deg, lon_deg)) is not None:
+            return reason
+        nav = self.nav()
+        if nav is None:
+            return None
+        reason = self.leg_problem((nav.lat_deg, nav.lon_deg), (lat_deg, lon_deg))
+        return None if reason is None else f"the way there {reason}"
+
+    def add_mode_check(self, name: str, check: ModeCheck) -> None:
+        """Add a check run before entering a mode (beyond the mode's own requirements)."""
+        self._mode_checks = [(n, c) for n, c in self._mode_checks if n != name]
+        self._mode_checks.append((name, check))
+
+    def mode_problem(self, number: int) -> str | None:
+        """Why the added mode checks refuse mode ``number`` now, or ``None``."""
+        for name, check in self._mode_checks:
+            try:
+                reason = check(self, number)
+            except Exception as exc:
+                log.exception("mode check %s failed", name)
+                reason = f"{name} check failed ({exc})"
+            if reason:
+                return reason
+        return None
+
     def arm(self, *, force: bool = False) -> str | None:
         """Arm after the pre-arm checks; returns ``None`` or the reason for refusal."""
         if self.armed:
@@ -193,7 +274,13 @@ class Vehicle:
 
     # -- modes ----------------------------------------------------------------------------
     def set_mode(self, number: int) -> str | None:
-        """Switch mode; ``None`` or the reason (see :meth:`ModeManager.set_mode`)."""
+        """Switch mode; ``None`` or the reason (the added mode checks, then
+        :meth:`ModeManager.set_mode`)."""
+        mode = self.modes.get(int(number)) if math.isfinite(number) and float(number).is_integer() else None
+        if mode is not None and mode is not self.modes.current:
+            reason = self.mode_problem(mode.number)
+            if reason is not None:
+                return f"{mode.name}: {reason}"
         return self.modes.set_mode(number, self)
 
     def start_modes(self) -> None:

@@ -19,7 +19,7 @@ Noise (Table 2, 1 sigma): heading 0.2 deg, attitude 0.5 deg, position 2 cm + 1 p
 the distance from the start point (Gauss-Markov, 10 s correlation), velocity 0.1 m/s per
 axis, gyro 0.05 deg/s white plus a seeded bias, gyro range +-100 deg/s.  Update rate
 1, 5, 10 or 100 Hz.  Faults (:class:`SensorFaults`): GNSS outage, silent device,
-corrupted bytes, heading bias, stuck gyro.
+corrupted bytes, heading bias, stuck gyro, frozen solution, NaN velocities, missing IMU sentences.
 """
 
 from __future__ import annotations
@@ -55,6 +55,12 @@ class SensorFaults:
     corrupt_fraction: float = 0.0
     heading_bias_deg: float = 0.0
     gyro_stuck: bool = False
+    frozen: bool = False
+    """The unit repeats its last solution (position, heading, velocity) with fresh time stamps."""
+    nan_velocity: bool = False
+    """Ve and Vn are written as ``nan`` (a unit whose filter diverged)."""
+    imu_silent: bool = False
+    """No ``$GTIMU`` sentences (stale IMU); the navigation solution keeps coming."""
 
 
 class Measurement(NamedTuple):
@@ -123,6 +129,7 @@ class GpsInsModel:
         self._last_gyro = 0.0
         self._noise = NormalStream(self.rng)  # interleaves with corrupt()'s draws as before
         self.samples = 0
+        self._last: Measurement | None = None
 
     def lat_lon(self, north_m: float, east_m: float) -> tuple[float, float]:
         """Geodetic degrees of a position relative to home, as this device converts it (no noise)."""
@@ -135,6 +142,16 @@ class GpsInsModel:
         return step_index % every == 0
 
     def measure(self, s: PlantState, dt_s: float) -> Measurement:
+        f = self.faults
+        if f.frozen and self._last is not None:
+            return self._last._replace(t_s=s.t_s)
+        m = self._measure(s, dt_s)
+        if f.nan_velocity:
+            m = m._replace(ve_mps=math.nan, vn_mps=math.nan)
+        self._last = m
+        return m
+
+    def _measure(self, s: PlantState, dt_s: float) -> Measurement:
         f = self.faults
         n = self._noise.draw
         # position: Gauss-Markov error, 2 cm CEP (~1.7 cm per axis) + 1 ppm of range

@@ -79,8 +79,10 @@ class SimulatedBoat:
         s = self.plant.state
         gpsins = self.gpsins
         imu, fpd, stamp = gpsins.sentences(gpsins.measure(s, self.step_s * every))
+        if self.faults.imu_silent:
+            imu = b""
         corrupted = gpsins.corrupt(fpd)
-        if corrupted is fpd:
+        if corrupted is fpd and not self.faults.nan_velocity:  # the companion drops NaN samples: no ACK
             self.pending = stamp
         if i % 10:
             return imu + corrupted

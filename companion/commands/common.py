@@ -21,6 +21,12 @@ def add_config_argument(parser: argparse.ArgumentParser) -> None:
                         help="directory for parameters, missions and logs (overrides vehicle.state_dir)")
 
 
+def add_mqtt_argument(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--mqtt", default=None, metavar="URL",
+                        help="publish telemetry, records and events to this MQTT broker "
+                             "(mqtt://HOST[:PORT] or mqtts://...; sets [mqtt] url)")
+
+
 def add_sim_arguments(parser: argparse.ArgumentParser, *, with_speedup: bool = True) -> None:
     """The disturbance flags shared by ``usv sitl``, ``usv sim`` and ``usv sim maneuver``."""
     parser.add_argument("--wind", default=None, metavar="SPEED_MPS,FROM_DEG",
@@ -44,7 +50,7 @@ def config_from_args(args: argparse.Namespace) -> Config:
     overrides: dict[str, Any] = {}
     for flag, key in (("wind", "sim.wind"), ("current", "sim.current"), ("waves", "sim.waves"),
                       ("seed", "sim.seed"), ("speedup", "sim.speedup"), ("state_dir", "vehicle.state_dir"),
-                      ("signing_key", "security.signing_key_file")):
+                      ("signing_key", "security.signing_key_file"), ("mqtt", "mqtt.url")):
         value = getattr(args, flag, None)
         if value is not None:
             overrides[key] = str(value) if isinstance(value, Path) else value

@@ -6,7 +6,7 @@ import argparse
 
 from companion.app import Application
 from companion.clock import WallClock
-from companion.commands.common import add_config_argument, config_from_args, run_async
+from companion.commands.common import add_config_argument, add_mqtt_argument, config_from_args, run_async
 from companion.config import Config
 from companion.statelock import StateDirLock
 
@@ -15,6 +15,7 @@ HELP = "run the companion alone against real hardware (GPS-INS and servo serial 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_config_argument(parser)
+    add_mqtt_argument(parser)
 
 
 async def run_companion(config: Config) -> None:

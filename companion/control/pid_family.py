@@ -96,7 +96,7 @@ class PidController:
         nozzle = self.rate_pid.update(scale * (r_d - nav.r_radps), dt_s, error_rate=-scale * r_rate,
                                       feedforward=scale * c.rate_ff * r_d,
                                       saturated_high=sat.nozzle_high, saturated_low=sat.nozzle_low)
-        ff = c.cruise_throttle * max(0.0, target.speed_mps) / c.cruise_speed_mps
+        ff = c.cruise_throttle * max(0.0, target.speed_mps - target.current_along_mps) / c.cruise_speed_mps
         throttle = self.speed_pid.update(target.speed_mps - nav.u_mps, dt_s, feedforward=ff,
                                          saturated_high=sat.throttle_high, saturated_low=sat.throttle_low)
         return ControlOutput(nozzle_rad=nozzle, throttle=throttle, heading_cmd_rad=psi_d)

@@ -34,6 +34,12 @@ class ControlTarget:
     hold_station: bool = False
     """The target comes from station keeping (LOITER, GUIDED and RTL on their point), which the
     control system steers with the family ``USV_STN_CTRL`` names."""
+    current_along_mps: float = 0.0
+    """The estimated water current's component along the commanded heading (m/s, positive from
+    astern), when guidance knows it: the speed through the water is ``speed_mps`` minus this, which
+    the PID family's throttle feed-forward uses (bow into a 1.2 m/s current: 1.2 m/s through the
+    water to stand still), so its integrator does not have to find the holding throttle again
+    after every mode change (it is reset on entry)."""
 
 
 @dataclass(frozen=True, slots=True)

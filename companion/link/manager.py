@@ -8,7 +8,9 @@ The byte transports are :mod:`companion.transport`'s: a
 accepting replies from anyone), a :class:`~companion.transport.TcpServer` whose every client
 is a link of its own (removed when the client leaves), and a
 :class:`~companion.transport.SerialLink` per radio (a new link per connection; a vanished
-port is retried every :data:`SERIAL_RETRY_S` seconds, never fatal).  Other services register
+port is retried every :data:`SERIAL_RETRY_S` seconds, never fatal, and found again at the same
+path, e.g. a ``/dev/serial/by-id`` symlink after the USB radio re-enumerates; the loss and the
+return are logged and told by STATUSTEXT on every link).  Other services register
 message handlers on :attr:`LinkManager.dispatcher` and send with :meth:`LinkManager.broadcast`
 or a link's own ``send``.  Every link starts with the same telemetry rates: the vehicle's
 (:data:`~companion.link.streams.DEFAULT_RATES_HZ`) plus the payloads' status messages
@@ -106,6 +108,17 @@ class LinkManager(BaseService):
             self.drop_link(link)
             link.close()
 
+    def _serial_opened(self, port: SerialLink) -> None:
+        self._attach(port, port.name)
+        if port.open_count > 1:  # it had vanished (USB radio unplugged, re-enumerated): say it is back
+            log.warning("%s reconnected (open #%d)", port.name, port.open_count)
+            self._announce(f"Radio {port.device} reconnected", Severity.NOTICE)
+
+    def _serial_lost(self, port: SerialLink) -> None:
+        self._detach(port)
+        log.warning("%s NOT OPEN (device gone); retrying every %g s", port.name, port.retry_s)
+        self._announce(f"Radio {port.device} lost: NOT OPEN, retrying")
+
     def _announce(self, text: str, severity: Severity = Severity.WARNING) -> None:
         self.ctx.bus.topic(STATUS_TEXT_TOPIC).publish(StatusText(self.ctx.clock.now_s(), severity, text))
 
@@ -168,7 +181,7 @@ class LinkManager(BaseService):
         for spec in cfg["links.serial"]:
             device, baud = parse_serial(spec, SERIAL_DEFAULT_BAUD)
             radio = SerialLink(device, baud, self.ctx.clock, SERIAL_RETRY_S,
-                               on_open=lambda port: self._attach(port, port.name), on_lost=self._detach)
+                               on_open=self._serial_opened, on_lost=self._serial_lost)
             self.serial.append(radio)
             await radio.open()
 

@@ -70,6 +70,10 @@ SIGNING_EPOCH_UNIX_S = 1_420_070_400
 TIMESTAMP_UNITS_PER_S = 100_000
 """Signing timestamps count 10 µs units."""
 NEW_STREAM_WINDOW = 60 * TIMESTAMP_UNITS_PER_S
+MAX_AHEAD_TIMESTAMP = 366 * 86_400 * TIMESTAMP_UNITS_PER_S
+"""SETUP_SIGNING's initial_timestamp may be at most a year ahead of the vehicle's clock: the
+signature carries 48 bits of timestamp, and one near that limit (the fuzzer sent 2**64 - 1)
+made every outgoing frame unencodable, silencing the vehicle on every link."""
 """A stream never seen before is accepted if its timestamp is at most one minute behind ours."""
 DROP_REPORT_S = 10.0
 """At most one STATUSTEXT about dropped frames per sending system and message type in this many
@@ -78,7 +82,7 @@ STATE_KEY_NAME = "signing.key"
 """Where a key set by SETUP_SIGNING is kept when no signing_key_file is configured."""
 
 READ_ONLY_MESSAGES: frozenset[str] = frozenset({
-    "HEARTBEAT", "RADIO_STATUS", "RADIO", "TIMESYNC", "SYSTEM_TIME",
+    "HEARTBEAT", "RADIO_STATUS", "RADIO", "TIMESYNC", "SYSTEM_TIME", "PING",
     "PARAM_REQUEST_LIST", "PARAM_REQUEST_READ",
     "MISSION_REQUEST_LIST", "MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK",
     "FILE_TRANSFER_PROTOCOL",  # this vehicle serves no files: every request is NAKed
@@ -371,6 +375,8 @@ class LinkSecurity:
         key = bytes(int(b) & 0xFF for b in msg.secret_key)
         if len(key) != KEY_BYTES:
             return "SETUP_SIGNING refused: the key must be 32 bytes"
+        if int(msg.initial_timestamp) > timestamp_now() + MAX_AHEAD_TIMESTAMP:
+            return "SETUP_SIGNING refused: initial_timestamp over a year ahead of the vehicle clock"
         if not any(key) and int(msg.initial_timestamp) == 0:
             if self.require_signing:
                 return "SETUP_SIGNING: cannot disable, signing is required"

@@ -8,6 +8,8 @@ Rules (MAVLink command protocol):
 * a handler that has not finished after :data:`IN_PROGRESS_AFTER_S` gets an IN_PROGRESS ack
   first (handlers may send their own progress with ``cmd.progress(percent)``);
 * a retransmission of a command that is still running is answered IN_PROGRESS, not run twice;
+* a repeat of a command accepted moments ago (a retry whose ACK was lost, a duplicated frame) is
+  answered with the cached ACK, not run again (:mod:`companion.mavlink.command_history`);
 * a handler exception -> ``MAV_RESULT_FAILED``; the process carries on.
 """
 
@@ -22,6 +24,7 @@ from companion.app import Context
 from companion.link.dialect import mav
 from companion.link.endpoint import Link
 from companion.link.manager import LinkManager
+from companion.mavlink.command_history import CommandHistory, command_signature
 from companion.mavlink.commands import MAV_RESULT, CommandRegistry, CommandRequest, CommandResult
 from companion.messages import Severity
 from companion.vehicle import Vehicle
@@ -44,6 +47,8 @@ class CommandService:
         self.registry = registry
         self._running: dict[_Key, tuple[asyncio.Task[None], list[int]]] = {}
         self._tasks: set[asyncio.Task[None]] = set()
+        self.history = CommandHistory()
+        """Recently accepted commands: their repeats get the cached ACK."""
         links.dispatcher.on("COMMAND_LONG", self._on_command)
         links.dispatcher.on("COMMAND_INT", self._on_command)
 
@@ -61,13 +66,23 @@ class CommandService:
         if running is not None and not running[0].done():
             self.send_ack(link, int(msg.command), MAV_RESULT.IN_PROGRESS, src, progress=running[1][0])
             return
+        values = tuple(float(p) for p in params)
+        signature = command_signature(frame, values, is_int)
+        repeat = self.history.repeat_of(src, int(msg.command), signature, self.ctx.clock.now_s(),
+                                        state=self._state())
+        if repeat is not None:
+            self.send_ack(link, int(msg.command), repeat.result, src, result_param2=repeat.result_param2)
+            if self.history.first_repeat(src, int(msg.command)):
+                window_s = self.history.window_s
+                self.vehicle.status(f"Command {int(msg.command)} repeated within {window_s:.0f} s:"
+                                    " earlier ACK resent, not run again")
+            return
         progress = [0]
 
         def progress_cb(percent: int) -> None:
             progress[0] = percent
             self.send_ack(link, int(msg.command), MAV_RESULT.IN_PROGRESS, src, progress=percent)
 
-        values = tuple(float(p) for p in params)
         cmd = CommandRequest(int(msg.command), values, is_int=is_int, frame=frame,  # type: ignore[arg-type]
                              source_system=src[0], source_component=src[1], confirmation=confirmation,
                              progress_cb=progress_cb, link=link)
@@ -83,6 +98,10 @@ class CommandService:
 
         task.add_done_callback(done)
 
+    def _state(self) -> tuple[bool, int]:
+        """What a repeat must find unchanged to be answered from the cache: armed and mode."""
+        return (bool(self.vehicle.armed), int(self.vehicle.modes.current.number))
+
     async def _execute(self, link: Link, cmd: CommandRequest, src: tuple[int, int]) -> None:
         result = await self._run_handler(link, cmd, src)
         self.send_ack(link, cmd.command, result.result, src, result_param2=result.result_param2)
@@ -91,6 +110,9 @@ class CommandService:
                 result.after_ack()
             except Exception:
                 log.exception("after-ack action of command %d failed", cmd.command)
+        self.history.record(src, cmd.command, command_signature(cmd.frame, cmd.params, cmd.is_int),
+                            result.result, result.result_param2, self.ctx.clock.now_s(),
+                            accepted=result.result == MAV_RESULT.ACCEPTED, state=self._state())
         if result.reason and result.result not in (MAV_RESULT.ACCEPTED, MAV_RESULT.IN_PROGRESS):
             self.vehicle.status(result.reason, Severity.WARNING)
         elif result.reason:

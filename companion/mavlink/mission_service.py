@@ -3,9 +3,11 @@
 Upload (ground station -> boat): MISSION_COUNT, then the boat requests every item with
 MISSION_REQUEST_INT and validates it on arrival (an invalid item ends the upload with the
 MAV_MISSION_RESULT code of :mod:`companion.mission.validate`); a request that gets no
-answer within :data:`ITEM_TIMEOUT_S` is repeated up to :data:`MAX_RETRIES` times (the
-spec's 1.5 s / 5 retries, with more retries so an upload survives 30 % packet loss); the
-plan is installed and persisted only when complete and valid, then MISSION_ACK.
+answer within :data:`ITEM_TIMEOUT_S` (0.25 s, PX4's mission retry timeout) is repeated up to
+:data:`MAX_RETRIES` times (10 s of silence); the
+plan is installed and persisted only when complete and valid, then MISSION_ACK.  A ground
+station that sends the last item again (its MISSION_ACK was lost) gets the same MISSION_ACK
+again, as from PX4, instead of silence.
 
 Download: MISSION_REQUEST_LIST -> MISSION_COUNT; items are served statelessly for any
 request, so lost packets only cost the ground station a retry.
@@ -37,16 +39,21 @@ from companion.link.dialect import mav
 from companion.link.endpoint import Link
 from companion.link.manager import LinkManager
 from companion.mavlink import telemetry
-from companion.messages import Severity
-from companion.mission import convention
+from companion.messages import GuidedTarget, ModeNumber, Severity
+from companion.mission import convention, route
 from companion.mission import validate as v
 from companion.mission.items import MissionItem, MissionType
 from companion.vehicle import Vehicle
 
 log = logging.getLogger(__name__)
 
-ITEM_TIMEOUT_S = 1.5
-MAX_RETRIES = 10
+GUIDED_ITEM = 2
+"""MISSION_ITEM.current value of a guided-mode target (ArduPilot)."""
+ITEM_TIMEOUT_S = 0.25
+"""A ground station waits for the next request, not resending its item: MAVSDK gives up after
+about six of its 0.5 s timeouts, so with 1.5 s here a 30 %-lossy link failed MAVSDK's uploads
+(measured through benchmarks/lossy_link.py); 0.25 s is PX4's MAVLINK_MISSION_RETRY_TIMEOUT."""
+MAX_RETRIES = 40
 CHECK_PERIOD_S = 0.05
 
 
@@ -94,6 +101,9 @@ class MissionService:
         self.item_timeout_s = item_timeout_s
         self.max_retries = max_retries
         self.uploads: dict[tuple[int, int], Upload] = {}
+        self.finished: dict[tuple[int, int], tuple[int, int]] = {}
+        """(link, mission type) -> (item count, MISSION_ACK result) of the last upload that ended
+        with its last item: a repeat of that item means our MISSION_ACK was lost, so it is resent."""
         self.completed_uploads = 0
         d = links.dispatcher
         d.on("MISSION_COUNT", self._on_count)
@@ -133,6 +143,7 @@ class MissionService:
             self._ack(link, peer, v.UNSUPPORTED, mtype)
             return
         count = int(msg.count)
+        self.finished.pop((id(link), mtype), None)
         if count == 0:
             self.uploads.pop((id(link), mtype), None)
             self.store.replace(mtype, [])
@@ -151,7 +162,13 @@ class MissionService:
         mtype = int(getattr(msg, "mission_type", 0))
         up = self.uploads.get((id(link), mtype))
         if up is None:
-            return  # late duplicate after the upload finished, or no upload: ignore
+            if int(msg.current) == GUIDED_ITEM and mtype == MissionType.MISSION:
+                self._guided_item(link, msg)
+                return
+            finished = self.finished.get((id(link), mtype))
+            if finished is not None and int(msg.seq) == finished[0] - 1:  # our MISSION_ACK was lost
+                self._ack(link, (msg.get_srcSystem(), msg.get_srcComponent()), finished[1], mtype)
+            return  # else a late duplicate after the upload finished, or no upload: ignore
         seq = int(msg.seq)
         if seq != up.expected:
             if seq < up.expected:
@@ -164,6 +181,8 @@ class MissionService:
         problem = self.validator.validate_item(item, home_item=maybe_home)
         if problem is not None:
             self._refuse(up, problem)
+            if seq == up.count - 1:
+                self.finished[(id(link), mtype)] = (up.count, problem.code)
             return
         up.items.append(item)
         up.retries = 0
@@ -173,9 +192,33 @@ class MissionService:
         problem = self._store(mtype, up.items)
         if problem is not None:
             self._refuse(up, problem)
+            self.finished[(id(link), mtype)] = (up.count, problem.code)
             return
         del self.uploads[(id(link), mtype)]
+        self.finished[(id(link), mtype)] = (up.count, v.ACCEPTED)
         self._ack(link, up.peer, v.ACCEPTED, mtype)
+
+    def _guided_item(self, link: Link, msg: Any) -> None:
+        """A MISSION_ITEM(_INT) with current = 2: ArduPilot's "guided mode waypoint" (MAVProxy's
+        ``guided``): a new GUIDED target, answered with MISSION_ACK (ACCEPTED; ERROR outside GUIDED;
+        INVALID_PARAM5_X/6_Y for a bad or refused position, with a STATUSTEXT)."""
+        peer = (msg.get_srcSystem(), msg.get_srcComponent())
+        item = item_from_msg(msg)
+        vehicle = self.vehicle
+        if vehicle.modes.current.number != ModeNumber.GUIDED:
+            self._ack(link, peer, v.ERROR, MissionType.MISSION)
+            vehicle.status("Guided target refused: not in GUIDED", Severity.WARNING)
+            return
+        problem = self.validator.validate_item(item.with_seq(0))
+        reason = None if problem is not None else vehicle.target_problem(item.lat_deg, item.lon_deg)
+        if problem is not None or reason is not None:
+            code = problem.code if problem is not None else v.INVALID_PARAM5_X
+            self._ack(link, peer, code, MissionType.MISSION)
+            why = problem.reason if problem is not None else reason
+            vehicle.status(f"Guided target refused: {why}", Severity.WARNING)
+            return
+        vehicle.guided_target = GuidedTarget(item.lat_deg, item.lon_deg, None, None, self.ctx.clock.now_s())
+        self._ack(link, peer, v.ACCEPTED, MissionType.MISSION)
 
     def install(self, mission_type: int, items: list[MissionItem]) -> v.ItemProblem | None:
         """Install a complete plan as a finished upload does, for a client in the same process
@@ -203,6 +246,8 @@ class MissionService:
             return v.ItemProblem(v.INVALID, verdict.reason)
         home_item = verdict.convention is convention.Convention.HOME_PLACEHOLDER
         problem = self.validator.validate_plan(items, home_first=home_item)
+        if problem is None:
+            problem = self._destinations_problem(mtype, items[1:] if home_item else items)
         if problem is not None:
             return problem
         try:
@@ -214,6 +259,22 @@ class MissionService:
         how = f" ({verdict.reason})" if mtype == MissionType.MISSION and self.home_first else ""
         self.vehicle.status(f"{kind.capitalize()} received: {len(items)} items{how}")
         return None
+
+    def _destinations_problem(self, mtype: int, items: list[MissionItem]) -> v.ItemProblem | None:
+        """The first mission item whose position the vehicle refuses (the geofence; INVALID_PARAM5_X,
+        the code of a position the item must not have), then the first leg between them (from home;
+        INVALID), :func:`companion.mission.route.route_problem`; rally points are checked as places."""
+        vehicle = self.vehicle
+        if mtype == MissionType.RALLY:
+            for item in items:
+                if (reason := vehicle.destination_problem(item.lat_deg, item.lon_deg)) is not None:
+                    return v.ItemProblem(v.INVALID_PARAM5_X, f"rally point {item.seq}: {reason}")
+            return None
+        if mtype != MissionType.MISSION:
+            return None
+        home = None if vehicle.home is None else (vehicle.home.lat_deg, vehicle.home.lon_deg)
+        return route.route_problem(items, home, self.validator.needs_position, vehicle.destination_problem,
+                                   vehicle.legs_problem)
 
     def _convention(self, mtype: int, items: list[MissionItem]) -> convention.Verdict:
         """How item 0 of a complete upload is to be read (always plain without home-first)."""
@@ -227,6 +288,8 @@ class MissionService:
         while True:
             await self.ctx.clock.sleep(CHECK_PERIOD_S)
             now_s = self.ctx.clock.now_s()
+            if len(self.finished) > 64:  # links come and go (TCP): keep the memory bounded
+                self.finished.clear()
             for key, up in list(self.uploads.items()):
                 if up.link.closed:
                     del self.uploads[key]

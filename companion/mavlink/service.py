@@ -29,6 +29,7 @@ from companion.mavlink.ftp import FtpService
 from companion.mavlink.manual_control import register_manual_control
 from companion.mavlink.mission_service import MissionService
 from companion.mavlink.param_service import ParamService
+from companion.mavlink.ping import register_ping
 from companion.mavlink.telemetry import Telemetry
 from companion.mavlink.vehicle_commands import VehicleCommands
 from companion.messages import STATUS_TEXT_TOPIC, GuidedTarget, ModeNumber, Severity, StatusText
@@ -71,6 +72,7 @@ class MavlinkService(BaseService):
         d.on("SET_MODE", self._on_set_mode)
         d.on("SET_POSITION_TARGET_GLOBAL_INT", self._on_position_target)
         register_manual_control(ctx, links)
+        register_ping(links)
         self._failsafe_gcs = False
         self._failsafe_engine = False
 
@@ -162,6 +164,9 @@ class MavlinkService(BaseService):
         if lat_lon_problem(lat_deg, lon_deg, zero_is_missing=True) is not None:
             self.vehicle.status("Position target refused: invalid position", Severity.WARNING)
             return
+        if (outside := self.vehicle.target_problem(lat_deg, lon_deg)) is not None:
+            self.vehicle.status(f"Position target refused: {outside}", Severity.WARNING)
+            return  # no answer in this protocol: the STATUSTEXT is the refusal
         speed = None
         if not msg.type_mask & mav.POSITION_TARGET_TYPEMASK_VX_IGNORE:
             speed_mps = math.hypot(msg.vx, msg.vy)

@@ -24,7 +24,9 @@ from companion.link.dialect import boat_module, mav
 from companion.mavlink import current_report, identity
 from companion.messages import (
     ACTUATOR_CMD_TOPIC,
+    FENCE_TOPIC,
     MODEL_ERROR_TOPIC,
+    NAV_HEALTH_TOPIC,
     NAV_TOPIC,
     RC_IN_TOPIC,
     SERVO_OUT_TOPIC,
@@ -68,16 +70,25 @@ def _cdeg_0_360(angle_rad: float) -> int:
 def sensor_bits(ctx: Context, vehicle: Vehicle) -> tuple[int, int, int]:
     """(present, enabled, health) for SYS_STATUS."""
     present = enabled = health = _SENSOR_PREARM
-    # Fences are stored but not enforced: the geofence is neither present nor enabled, and
-    # its health bit says "not breached" (MAVProxy announces a breach when it is clear).
-    health |= mav.MAV_SYS_STATUS_GEOFENCE
+    # Geofence (as ArduPilot): present with a FENCE plan, enabled with FENCE_ENABLE, healthy unless in
+    # a breach episode; the health bit is set without a fence too (MAVProxy announces a breach when it
+    # is clear).
+    fence = ctx.bus.topic(FENCE_TOPIC).latest()
+    if fence is not None and fence.present:
+        present |= mav.MAV_SYS_STATUS_GEOFENCE
+        if fence.enabled:
+            enabled |= mav.MAV_SYS_STATUS_GEOFENCE
+    if fence is None or not (fence.present and fence.enabled and fence.breached):
+        health |= mav.MAV_SYS_STATUS_GEOFENCE
     nav = _nav(ctx)
+    nav_health = ctx.bus.topic(NAV_HEALTH_TOPIC).latest()  # NavHealth's verdict (frozen, stuck gyro)
     if nav is not None:
         present |= _SENSORS_INS | _SENSOR_GPS
         enabled |= _SENSORS_INS | _SENSOR_GPS
-        if _fresh(ctx, nav.t_s) and nav.attitude_valid:
+        if _fresh(ctx, nav.t_s) and nav.attitude_valid and (nav_health is None or nav_health.ins_ok):
             health |= _SENSORS_INS
-        if _fresh(ctx, nav.t_s) and nav.position_valid and nav.fix_type >= FixType.FIX_3D:
+        if (_fresh(ctx, nav.t_s) and nav.position_valid and nav.fix_type >= FixType.FIX_3D
+                and (nav_health is None or nav_health.gps_ok)):
             health |= _SENSOR_GPS
     rc = ctx.bus.topic(RC_IN_TOPIC).latest()
     if rc is not None:
@@ -222,6 +233,21 @@ def current_mode_msg(ctx: Context, vehicle: Vehicle) -> Any:
     return identity.current_mode(vehicle)
 
 
+def fence_status(ctx: Context, vehicle: Vehicle) -> Any:
+    """FENCE_STATUS while a FENCE plan is stored (as ArduPilot, nothing without one): breach_status 1
+    during a breach episode (the boat or its predicted stop point within FENCE_MARGIN of a boundary),
+    the episodes so far, BOUNDARY (the only kind on a boat) and the time the last one began."""
+    fence = ctx.bus.topic(FENCE_TOPIC).latest()
+    if fence is None or not fence.present:
+        return None
+    since_boot_s = 0.0 if fence.breach_time_s is None else max(0.0, fence.breach_time_s - vehicle.boot_s)
+    breach_ms = int(since_boot_s * 1000)
+    kind = mav.FENCE_BREACH_BOUNDARY if fence.breach_count else mav.FENCE_BREACH_NONE
+    mitigation = mav.FENCE_MITIGATE_UNKNOWN if fence.enabled else mav.FENCE_MITIGATE_NONE
+    return mav.MAVLink_fence_status_message(int(fence.breached), min(65535, fence.breach_count), kind,
+                                            breach_ms & 0xFFFFFFFF, mitigation)
+
+
 def usv_model_status(ctx: Context, vehicle: Vehicle) -> Any:
     usv = boat_module()
     if usv is None:
@@ -255,6 +281,7 @@ BUILDERS: dict[int, Builder] = {
     s.EXTENDED_SYS_STATE: extended_sys_state,
     s.CURRENT_MODE: current_mode_msg,
     s.USV_MODEL_STATUS: usv_model_status,
+    s.FENCE_STATUS: fence_status,
     s.USV_CURRENT_ESTIMATE: lambda ctx, v: current_report.usv_current_estimate(ctx, time_boot_ms(ctx, v)),
     s.NAMED_VALUE_FLOAT: lambda ctx, v: current_report.named_current_values(ctx, time_boot_ms(ctx, v)),
 }

@@ -127,6 +127,8 @@ class VehicleCommands:
         lat_deg, lon_deg = cmd.lat_deg, cmd.lon_deg
         if (bad := lat_lon_problem(lat_deg, lon_deg, zero_is_missing=True)) is not None:
             return CommandResult.denied(f"Reposition refused: {bad.text}")
+        if (outside := vehicle.target_problem(lat_deg, lon_deg)) is not None:
+            return CommandResult.denied(f"Reposition refused: {outside}")
         speed, problem = _speed_or_none(cmd.param1, "Reposition refused")
         if problem:
             return CommandResult.denied(problem)

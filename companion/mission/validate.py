@@ -81,6 +81,7 @@ _MISSION_COMMANDS: dict[int, bool] = {
     **{c: False for c in range(mi.CMD_USER_FIRST, mi.CMD_USER_LAST + 1)},
 }
 _FENCE_COMMANDS: dict[int, bool] = {
+    mi.CMD_NAV_FENCE_RETURN_POINT: True,  # QGC's "breach return"; stored, not used (Rover returns home)
     mi.CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION: True,
     mi.CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION: True,
     mi.CMD_NAV_FENCE_CIRCLE_INCLUSION: True,
@@ -89,6 +90,27 @@ _FENCE_COMMANDS: dict[int, bool] = {
 _RALLY_COMMANDS: dict[int, bool] = {mi.CMD_NAV_RALLY_POINT: True}
 _COMMANDS_BY_TYPE = {MissionType.MISSION: _MISSION_COMMANDS, MissionType.FENCE: _FENCE_COMMANDS,
                      MissionType.RALLY: _RALLY_COMMANDS}
+
+
+_POLYGON_VERTICES = (mi.CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION, mi.CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION)
+
+
+def polygon_groups_problem(plan: list[MissionItem]) -> str | None:
+    """Why the polygon vertices of a FENCE plan do not form whole polygons (each run of one vertex
+    command holds exactly param1 items, param1 the same in all of them), or ``None``."""
+    i = 0
+    while i < len(plan):
+        item = plan[i]
+        if item.command not in _POLYGON_VERTICES:
+            i += 1
+            continue
+        count = int(item.param1) if math.isfinite(item.param1) else 0
+        group = plan[i:i + count]
+        if count < 3 or len(group) < count or any(
+                g.command != item.command or g.param1 != item.param1 for g in group):
+            return f"item {item.seq}: polygon of {item.param1:g} vertices is incomplete"
+        i += count
+    return None
 
 
 @dataclass(frozen=True, slots=True)
@@ -196,7 +218,15 @@ class MissionValidator:
             if item.command == mi.CMD_DO_JUMP and int(item.param1) >= len(plan):
                 return ItemProblem(INVALID_PARAM1,
                                    f"item {index}: jump target {int(item.param1)} does not exist")
+        if mtype == MissionType.FENCE and (reason := polygon_groups_problem(plan)) is not None:
+            return ItemProblem(INVALID_PARAM1, reason)
         return None
+
+    def needs_position(self, item: MissionItem) -> bool:
+        """Whether ``item`` is a command with a position (a place the boat is sent to, in a mission)."""
+        table = self._mission_commands if item.mission_type == MissionType.MISSION else \
+            _COMMANDS_BY_TYPE.get(MissionType(item.mission_type), {})
+        return bool(table.get(item.command, False))
 
 
 BUILT_IN = MissionValidator()

@@ -60,9 +60,12 @@ class CurrentStationTask:
         self.cross_track_m = 0.0
 
     def step(self, nav: NavState, dt_s: float) -> ControlTarget:
-        out = self.keeper.update(self.frame.to_ne(nav.lat_deg, nav.lon_deg), self.current(), dt_s)
+        current = self.current()
+        out = self.keeper.update(self.frame.to_ne(nav.lat_deg, nav.lon_deg), current, dt_s)
         self.distance_m = out.distance_m
-        return ControlTarget(out.heading_rad, out.surge_speed_mps, is_heading=True, hold_station=True)
+        along = current[0] * math.cos(out.heading_rad) + current[1] * math.sin(out.heading_rad)
+        return ControlTarget(out.heading_rad, out.surge_speed_mps, is_heading=True, hold_station=True,
+                             current_along_mps=along)
 
 
 class OrbitTask:

@@ -30,7 +30,7 @@ import pkgutil
 import xml.etree.ElementTree as ET
 from collections.abc import Awaitable, Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from companion.actuators.servo import ServoChannel
 from companion.app import BaseService, Context
@@ -47,6 +47,7 @@ __all__ = ["DialectEntries", "Payload", "PayloadCommandDecl", "PayloadDef", "Pay
            "PayloadError", "PayloadRegistry", "ServoChannel", "StatusMessage", "built_in_payloads"]
 
 log = logging.getLogger(__name__)
+T = TypeVar("T")
 
 STATUSTEXT_CHARS = 50
 """Payload announcements are cut to one STATUSTEXT chunk."""
@@ -171,6 +172,10 @@ class PayloadRegistry(BaseService):
             if payload.name == name:
                 return payload.device
         raise LookupError(f"no payload {name!r} on this vehicle")
+
+    def find(self, kind: type[T]) -> T | None:
+        """The device of type ``kind`` (e.g. the sampler), or ``None`` if this vehicle has none."""
+        return next((p.device for p in self.payloads if isinstance(p.device, kind)), None)
 
     def register_commands(self, registry: CommandRegistry) -> None:
         for payload in self.payloads:

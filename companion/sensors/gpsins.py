@@ -11,8 +11,10 @@ Sentences understood (NMEA framing and XOR checksum, :mod:`companion.sensors.nme
 * ``$PUSVRC,SOURCE,CH1..CH8`` -> :class:`~companion.messages.RcInput` on ``rc_in``.
 
 A payload may declare more sentences of the box (``extra_sentences``: name -> handler of the
-fields).  Bad checksums, garbage and malformed fields are counted in
-:attr:`GpsInsParser.errors` and dropped; nothing raises.
+fields).  Bad checksums, garbage and malformed fields (also NaN, speeds beyond
+:data:`MAX_SPEED_MPS`, rates beyond :data:`MAX_GYRO_DEGPS`) are counted in
+:attr:`GpsInsParser.errors` and dropped; nothing raises.  A ``$GPFPD`` without a ``$GTIMU`` in the
+last :data:`IMU_STALE_S` has ``attitude_valid`` false (stale IMU).
 """
 
 from __future__ import annotations
@@ -38,6 +40,12 @@ from companion.messages import (
 from companion.sensors.nmea import LineFramer
 
 TWO_PI = 2.0 * math.pi
+MAX_SPEED_MPS = 50.0
+"""Velocities beyond this (the boat's top speed is 10 m/s) are a fault of the unit, not motion."""
+MAX_GYRO_DEGPS = 400.0
+"""Beyond the XW-GI's +-100 deg/s range with room: a larger rate is garbage."""
+IMU_STALE_S = 0.5
+"""A navigation sample without a ``$GTIMU`` for this long has no valid attitude rates."""
 
 NavCallback = Callable[[NavState, str], object]
 """Called with each navigation sample and its GPS time field (the lockstep ACK)."""
@@ -54,6 +62,7 @@ class GpsInsParser:
         self.field_errors = 0
         self.nav_samples = 0
         self._gyro_z_degps = 0.0
+        self._imu_t_s: float | None = None
         self._engine = bus.topic(ENGINE_TOPIC)
         self._rc = bus.topic(RC_IN_TOPIC)
         self._payload = bus.topic(PAYLOAD_SENSORS_TOPIC)
@@ -83,7 +92,11 @@ class GpsInsParser:
     def _gtimu(self, f: list[str]) -> None:
         if len(f) != 10:
             raise ValueError("GTIMU field count")
-        self._gyro_z_degps = float(f[5])
+        gyro_z_degps = float(f[5])
+        if not abs(gyro_z_degps) <= MAX_GYRO_DEGPS:  # also NaN
+            raise ValueError("gyro out of range")
+        self._gyro_z_degps = gyro_z_degps
+        self._imu_t_s = self.clock.now_s()
 
     def _gpfpd(self, f: list[str]) -> None:
         if len(f) != 16:
@@ -95,14 +108,21 @@ class GpsInsParser:
         lat, lon = float(f[6]), float(f[7])
         if not valid_lat_lon(lat, lon):
             raise ValueError("position out of range")
+        if not (abs(ve) <= MAX_SPEED_MPS and abs(vn) <= MAX_SPEED_MPS):  # also NaN
+            raise ValueError("velocity out of range")
+        pitch_deg, roll_deg, alt_m = float(f[4]), float(f[5]), float(f[8])
+        if not (abs(pitch_deg) <= 90.0 and abs(roll_deg) <= 180.0 and math.isfinite(alt_m)):
+            raise ValueError("attitude or altitude out of range")
+        now_s = self.clock.now_s()
+        imu_fresh = self._imu_t_s is not None and now_s - self._imu_t_s <= IMU_STALE_S
         status = int(f[15], 16)
         gnss_ok = bool(status & 0x01)
         c, s = math.cos(heading), math.sin(heading)
         # positional, in NavState's field order (keywords cost more on this 100 Hz path)
-        nav = NavState(self.clock.now_s(), lat, lon, float(f[8]), wrap_2pi(heading),
-                       math.radians(float(f[5])), math.radians(float(f[4])), vn, ve,
+        nav = NavState(now_s, lat, lon, alt_m, wrap_2pi(heading),
+                       math.radians(roll_deg), math.radians(pitch_deg), vn, ve,
                        c * vn + s * ve, -s * vn + c * ve, -math.radians(self._gyro_z_degps),
-                       FixType.FIX_3D if gnss_ok else FixType.NO_FIX, int(f[13]), gnss_ok, True)
+                       FixType.FIX_3D if gnss_ok else FixType.NO_FIX, int(f[13]), gnss_ok, imu_fresh)
         self.nav_samples += 1
         self.on_nav(nav, f[2])
 

@@ -212,3 +212,14 @@ def test_garbage_and_bit_flipped_signed_frames_never_raise_nor_act(tmp_path: Pat
     v.link.feed(bytes(data) + bytes(signed))  # on a byte stream (TCP, serial): garbage first
     intact = param_sent == param_frame
     assert v.handled.count("PARAM_SET") == (1 if intact else 0)  # a damaged frame never, a replay never
+
+
+def test_setup_signing_with_a_timestamp_beyond_the_signature_is_refused(tmp_path: Path) -> None:
+    """Found by the fuzzer (tests/rig): 2**64 - 1 as initial_timestamp on the trusted serial link
+    made every frame the vehicle sent unencodable (48-bit signature timestamp): silent on every link."""
+    v = Vehicle(tmp_path, require=False, key=None, name="serial:/dev/ttyUSB0")
+    msg = station(None).setup_signing_encode(1, 1, list(OTHER), 2**64 - 1)
+    assert "over a year ahead" in str(v.security.setup_signing(v.link, msg))
+    assert v.security.key is None
+    v.link.send(mavlink2.MAVLink_heartbeat_message(11, 8, 0, 0, 3, 3))
+    assert v.sent  # the vehicle still talks
