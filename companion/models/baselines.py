@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from companion.models.base import FloatArray, LinearInParamsModel
+from companion.models.base import NU_LIMIT, FloatArray, LinearInParamsModel
 
 LINEAR_FEATURES: tuple[str, ...] = ("1", "u", "throttle", "v", "r", "delta")
 
@@ -35,7 +35,53 @@ def _linear_features(nu: FloatArray, throttle: FloatArray, delta_rad: FloatArray
 
 
 @dataclass(frozen=True)
-class LinearizedModel(LinearInParamsModel):
+class _AffineModel(LinearInParamsModel):
+    """A model whose features are affine in nu: ``nu_dot = A nu + b(throttle, delta)``.
+
+    Its free run is the same RK4 with zero-order-hold input and the same clipping as
+    :meth:`LinearInParamsModel.simulate`, written on Python floats with ``b`` of every interval
+    computed up front: about 30 times faster than evaluating the feature vector four times per
+    step with numpy (the baselines are simulated dozens of times by ``usv identify``).
+    """
+
+    def simulate(self, t_s: FloatArray, nu0: FloatArray, throttle: FloatArray, delta_rad: FloatArray,
+                 delta_nu: FloatArray | None = None) -> FloatArray:
+        if delta_nu is not None:
+            return super().simulate(t_s, nu0, throttle, delta_rad, delta_nu)
+        t = np.asarray(t_s, dtype=float)
+        n = t.size
+        names = ("1", "u", "throttle", "v", "r", "delta")
+        i1, iu, ithr, iv, ir, idl = (LINEAR_FEATURES.index(name) for name in names)
+        th = self.theta
+        a = th[:, [iu, iv, ir]].tolist()  # A: columns u, v, r
+        b = (th[:, i1][None, :] + np.asarray(throttle, dtype=float)[:, None] * th[:, ithr][None, :]
+             + np.asarray(delta_rad, dtype=float)[:, None] * th[:, idl][None, :]).tolist()
+        dts = np.diff(t).tolist()
+        lim = NU_LIMIT.tolist()
+        (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = a
+        out = np.empty((n, 3))
+        out[0] = nu0
+        u, v, r = (float(x) for x in np.asarray(nu0, dtype=float))
+
+        def f(u: float, v: float, r: float, bk: list[float]) -> tuple[float, float, float]:
+            return (a00 * u + a01 * v + a02 * r + bk[0], a10 * u + a11 * v + a12 * r + bk[1],
+                    a20 * u + a21 * v + a22 * r + bk[2])
+
+        for k in range(n - 1):
+            dt, bk = dts[k], b[k]
+            k1 = f(u, v, r, bk)
+            k2 = f(u + 0.5 * dt * k1[0], v + 0.5 * dt * k1[1], r + 0.5 * dt * k1[2], bk)
+            k3 = f(u + 0.5 * dt * k2[0], v + 0.5 * dt * k2[1], r + 0.5 * dt * k2[2], bk)
+            k4 = f(u + dt * k3[0], v + dt * k3[1], r + dt * k3[2], bk)
+            u = min(max(u + dt / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]), -lim[0]), lim[0])
+            v = min(max(v + dt / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]), -lim[1]), lim[1])
+            r = min(max(r + dt / 6.0 * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2]), -lim[2]), lim[2])
+            out[k + 1] = (u, v, r)
+        return out
+
+
+@dataclass(frozen=True)
+class LinearizedModel(_AffineModel):
     """Linearised speed-and-steering model (Table 3, first column)."""
 
     FEATURES = LINEAR_FEATURES
@@ -46,7 +92,7 @@ class LinearizedModel(LinearInParamsModel):
 
 
 @dataclass(frozen=True)
-class NomotoSideslipModel(LinearInParamsModel):
+class NomotoSideslipModel(_AffineModel):
     """First-order Nomoto yaw model with first-order sideslip lag (Table 3, second column)."""
 
     FEATURES = LINEAR_FEATURES
