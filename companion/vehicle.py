@@ -13,7 +13,8 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from typing import Any, Generic, TypeVar
 
 from companion.app import Context
 from companion.control.manual_input import PilotInput, pilot_input
@@ -65,6 +66,39 @@ def home_placeholder_profile(profile: str) -> bool:
     return profile == "ardurover"
 
 
+
+R = TypeVar("R")
+
+
+class NamedChecks(Generic[R]):
+    """Checks kept by name, in the order added; adding one under a known name replaces it.
+
+    Each check answers an ``R`` (a reason, or ``None``/empty when all is well).  A check that
+    raises is logged and answers ``failed(name, exc)`` instead: a broken check refuses, it never
+    takes the vehicle down."""
+
+    def __init__(self, kind: str, checks: Sequence[tuple[str, Callable[..., R]]] = ()) -> None:
+        self.kind = kind
+        self._checks: list[tuple[str, Callable[..., R]]] = list(checks)
+
+    def add(self, name: str, check: Callable[..., R]) -> None:
+        self._checks = [(n, c) for n, c in self._checks if n != name]
+        self._checks.append((name, check))
+
+    def answers(self, *args: Any, failed: Callable[[str, Exception], R]) -> Iterator[R]:
+        """Every check's answer to ``check(*args)``, in order."""
+        for name, check in self._checks:
+            try:
+                yield check(*args)
+            except Exception as exc:
+                log.exception("%s check %s failed", self.kind, name)
+                yield failed(name, exc)
+
+
+def _failed_reason(name: str, exc: Exception) -> str:
+    return f"{name} check failed ({exc})"
+
+
 class Vehicle:
     """Arming, home, targets, modes and mission progress of one boat."""
 
@@ -92,12 +126,11 @@ class Vehicle:
         self.relays: dict[int, bool] = {}
         """DO_SET_RELAY: relay instance -> on (its channel is in ``servo_overrides_us``)."""
         self.boot_s = ctx.clock.now_s()
-        self._prearm_checks: list[tuple[str, PrearmCheck]] = [
-            ("position", _check_position), ("attitude", _check_attitude),
-        ]
-        self._destination_checks: list[tuple[str, DestinationCheck]] = []
-        self._leg_checks: list[tuple[str, LegsCheck]] = []
-        self._mode_checks: list[tuple[str, ModeCheck]] = []
+        self._prearm_checks: NamedChecks[str | None] = NamedChecks(
+            "pre-arm", [("position", _check_position), ("attitude", _check_attitude)])
+        self._destination_checks: NamedChecks[str | None] = NamedChecks("destination")
+        self._leg_checks: NamedChecks[tuple[int, str] | None] = NamedChecks("leg")
+        self._mode_checks: NamedChecks[str | None] = NamedChecks("mode")
         self.home_listeners: list[Callable[[Home], None]] = []
         self.status_listeners: list[Callable[[], None]] = []
         self._nav = ctx.bus.topic(NAV_TOPIC)
@@ -162,57 +195,33 @@ class Vehicle:
     # -- arming ---------------------------------------------------------------------------
     def add_prearm_check(self, name: str, check: PrearmCheck) -> None:
         """Add a pre-arm check; ``check(vehicle)`` returns a refusal reason or ``None``."""
-        self._prearm_checks = [(n, c) for n, c in self._prearm_checks if n != name]
-        self._prearm_checks.append((name, check))
+        self._prearm_checks.add(name, check)
 
     def prearm_failures(self) -> list[str]:
         """Every reason that currently prevents arming (empty: ready to arm)."""
-        reasons: list[str] = []
-        for name, check in self._prearm_checks:
-            try:
-                reason = check(self)
-            except Exception as exc:
-                log.exception("pre-arm check %s failed", name)
-                reason = f"{name} check failed ({exc})"
-            if reason:
-                reasons.append(reason)
-        return reasons
+        return [r for r in self._prearm_checks.answers(self, failed=_failed_reason) if r]
 
     def add_destination_check(self, name: str, check: DestinationCheck) -> None:
         """Add a check of every place the boat is sent to (GUIDED targets, mission items)."""
-        self._destination_checks = [(n, c) for n, c in self._destination_checks if n != name]
-        self._destination_checks.append((name, check))
+        self._destination_checks.add(name, check)
 
     def destination_problem(self, lat_deg: float, lon_deg: float) -> str | None:
         """Why the boat may not be sent to (``lat_deg``, ``lon_deg``), or ``None``."""
-        for name, check in self._destination_checks:
-            try:
-                reason = check(lat_deg, lon_deg)
-            except Exception as exc:
-                log.exception("destination check %s failed", name)
-                reason = f"{name} check failed ({exc})"
-            if reason:
-                return reason
-        return None
+        answers = self._destination_checks.answers(lat_deg, lon_deg, failed=_failed_reason)
+        return next((r for r in answers if r), None)
 
     def add_leg_check(self, name: str, check: LegsCheck) -> None:
         """Add a check of the straight legs the boat is sent along (mission legs, the way to a GUIDED
         target): ``check(legs)`` returns the first refused leg's index and why."""
-        self._leg_checks = [(n, c) for n, c in self._leg_checks if n != name]
-        self._leg_checks.append((name, check))
+        self._leg_checks.add(name, check)
 
     def legs_problem(self, legs: Legs) -> tuple[int, str] | None:
         """The first of the (start, end) legs (lat, lon) the boat may not drive straight, and why."""
-        first: tuple[int, str] | None = None
-        for name, check in self._leg_checks:
-            try:
-                found = check(legs)
-            except Exception as exc:
-                log.exception("leg check %s failed", name)
-                found = (0, f"{name} check failed ({exc})") if legs else None
-            if found is not None and (first is None or found[0] < first[0]):
-                first = found
-        return first
+        def failed(name: str, exc: Exception) -> tuple[int, str] | None:
+            return (0, _failed_reason(name, exc)) if legs else None
+
+        found = [f for f in self._leg_checks.answers(legs, failed=failed) if f is not None]
+        return min(found, key=lambda f: f[0], default=None)
 
     def leg_problem(self, start: LatLon, end: LatLon) -> str | None:
         """Why the boat may not drive straight from ``start`` to ``end`` (lat, lon), or ``None``."""
@@ -232,20 +241,11 @@ class Vehicle:
 
     def add_mode_check(self, name: str, check: ModeCheck) -> None:
         """Add a check run before entering a mode (beyond the mode's own requirements)."""
-        self._mode_checks = [(n, c) for n, c in self._mode_checks if n != name]
-        self._mode_checks.append((name, check))
+        self._mode_checks.add(name, check)
 
     def mode_problem(self, number: int) -> str | None:
         """Why the added mode checks refuse mode ``number`` now, or ``None``."""
-        for name, check in self._mode_checks:
-            try:
-                reason = check(self, number)
-            except Exception as exc:
-                log.exception("mode check %s failed", name)
-                reason = f"{name} check failed ({exc})"
-            if reason:
-                return reason
-        return None
+        return next((r for r in self._mode_checks.answers(self, number, failed=_failed_reason) if r), None)
 
     def arm(self, *, force: bool = False) -> str | None:
         """Arm after the pre-arm checks; returns ``None`` or the reason for refusal."""
