@@ -94,6 +94,24 @@ class TrackPoint:
     speed_mps: float
 
 
+@dataclass(frozen=True, slots=True)
+class WaterCurrent:
+    """The vehicle's estimate of the water current (USV_CURRENT_ESTIMATE): where the water flows
+    toward, m/s north and east, and how clearly it stands out of its uncertainty (0..1)."""
+
+    north_mps: float
+    east_mps: float
+    confidence: float
+
+    @property
+    def speed_mps(self) -> float:
+        return math.hypot(self.north_mps, self.east_mps)
+
+    @property
+    def toward_deg(self) -> float:
+        return math.degrees(math.atan2(self.east_mps, self.north_mps)) % 360.0
+
+
 @dataclass
 class Records:
     """What the vehicle reported, stamped with vehicle seconds."""
@@ -113,10 +131,12 @@ class Records:
     """Vehicle unix time minus vehicle boot time (SYSTEM_TIME)."""
     heard_wall_s: float = 0.0
     homes: int = 0
+    """HOME_POSITION messages received (the latest is :attr:`Boat.home`)."""
     mode: int = -1
     """custom_mode of the vehicle's HEARTBEAT (ArduRover numbers)."""
     armed: bool = False
-    """HOME_POSITION messages received (the latest is :attr:`Boat.home`)."""
+    water_current: WaterCurrent | None = None
+    """The vehicle's latest water-current estimate (USV_CURRENT_ESTIMATE; ``None`` while it has none)."""
 
 
 class Boat:
@@ -177,6 +197,7 @@ class Boat:
             "MISSION_CURRENT": self._on_current, "MISSION_ITEM_REACHED": self._on_reached,
             "USV_LAUNCHER_STATUS": self._on_launcher, "USV_SAMPLER_STATUS": self._on_sampler,
             "HOME_POSITION": self._on_home, "HEARTBEAT": self._on_heartbeat,
+            "USV_CURRENT_ESTIMATE": self._on_water_current,
         }
         for name, handler in handlers.items():
             self._tasks.append(asyncio.ensure_future(self._follow(name, handler)))
@@ -214,6 +235,11 @@ class Boat:
         self.rec.current = (int(f["seq"]), int(f["total"]), int(f.get("mission_state", 0)))
         if self.rec.current[2] == MISSION_STATE_ACTIVE:
             self.rec.current_since.setdefault(self.rec.current[0], self.now_s())
+
+    def _on_water_current(self, f: dict[str, Any]) -> None:
+        north, east, confidence = (_number(f.get(k)) for k in ("current_north", "current_east", "confidence"))
+        finite = all(math.isfinite(x) for x in (north, east, confidence))
+        self.rec.water_current = WaterCurrent(north, east, confidence) if finite else None
 
     def _on_reached(self, f: dict[str, Any]) -> None:
         self.rec.reached.setdefault(int(f["seq"]), self.now_s())
@@ -432,6 +458,11 @@ def fail(name: str, exc: MissionError, as_json: bool = False) -> int:
         print(f"{name}: {json.dumps(_finite(exc.details), default=str)}", flush=True)
     print(f"{name}: FAILED: {exc}", file=sys.stderr, flush=True)
     return exc.code
+
+
+def _number(value: Any) -> float:
+    """A JSON field as a float; NaN for null, text or anything else that is not a number."""
+    return float(value) if isinstance(value, (int, float)) else math.nan
 
 
 def _finite(value: Any) -> Any:

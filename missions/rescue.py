@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import math
 import sys
 from typing import Any
@@ -29,12 +30,16 @@ from mavsdk.plugins.mission_raw import MissionItem
 
 from companion.guidance.geo import LocalFrame
 from mavlink_dialect import UsvCmd
-from missions.common import Boat, MissionError, add_common_arguments, finish, fly, parse_pair
+from missions.common import Boat, MissionError, WaterCurrent, add_common_arguments, finish, fly, parse_pair
 
 NAME = "rescue"
 FRAME_MISSION, FRAME_GLOBAL_RELATIVE_ALT_INT = 2, 6
 CMD_NAV_WAYPOINT, CMD_NAV_LOITER_TIME, CMD_NAV_RETURN_TO_LAUNCH, CMD_DO_CHANGE_SPEED = 16, 19, 20, 178
-LAUNCH_SEQ = 3
+CURRENT_WAIT_S = 10.0
+"""How long (vehicle seconds) the upstream approach waits for a confident current estimate (slack
+water never gives one: then the launch is planned on the direct line)."""
+MIN_CONFIDENCE = 0.5
+"""Confidence of the current estimate from which the launch is planned from downstream."""
 STOPPED_MPS = 1.8
 """The vehicle's "stopped" for a jet boat on a bearing (AUTO's launch item)."""
 ROPE_RANGE_M = 150.0
@@ -63,6 +68,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--tow-speed", type=float, default=1.5, metavar="MPS", help="default 1.5")
     parser.add_argument("--launch-tol", type=float, default=8.0, metavar="M",
                         help="largest distance of the launch from the planned point (default 8)")
+    parser.add_argument("--approach", choices=("upstream", "direct"), default="upstream",
+                        help="upstream (default): in moving water, stop downstream of the casualty with "
+                             "the bow into the current; direct: stop on the line from the boat")
+    parser.add_argument("--min-current", type=float, default=0.1, metavar="MPS",
+                        help="weakest estimated current for the upstream approach (default 0.1)")
     parser.add_argument("--bearing-tol", type=float, default=10.0, metavar="DEG",
                         help="largest angle between the bow and the casualty at launch (default 10)")
     add_common_arguments(parser, timeout_s=900.0)
@@ -84,36 +94,94 @@ def _item(seq: int, command: int, lat_lon: tuple[float, float] | None = None, *p
 
 def plan(boat: Boat, casualty_ne: tuple[float, float], args: argparse.Namespace) -> dict[str, Any]:
     """The mission items and the geometry they were planned from (north-east metres from home)."""
-    return plan_from(boat.frame(), boat.position_ne(), casualty_ne, args)
+    est = boat.rec.water_current
+    drift = None if est is None else (est.north_mps, est.east_mps, est.confidence)
+    return plan_from(boat.frame(), boat.position_ne(), casualty_ne, args, drift)
+
+
+Drift = tuple[float, float, float]
+"""A water-current estimate: north m/s, east m/s, confidence (0..1)."""
+
+
+def confident(est: WaterCurrent | None) -> bool:
+    """An estimate that stands out of its uncertainty enough to plan the launch on."""
+    return est is not None and est.confidence >= MIN_CONFIDENCE
+
+
+def upstream_unit(drift: Drift | None, args: argparse.Namespace) -> tuple[float, float] | None:
+    """The unit vector (north, east) against the water's flow when the launch should be made from
+    downstream: ``--approach upstream`` and an estimate (north m/s, east m/s, confidence) of at
+    least ``--min-current`` m/s that stands out of its uncertainty (confidence >= 0.5, the
+    vehicle's own threshold for holding station bow into the current); else ``None``."""
+    if args.approach != "upstream" or drift is None:
+        return None
+    north, east, confidence = drift
+    speed = math.hypot(north, east)
+    if not (math.isfinite(speed) and speed >= args.min_current and confidence >= MIN_CONFIDENCE):
+        return None
+    return (-north / speed, -east / speed)
 
 
 def plan_from(frame: LocalFrame, here: tuple[float, float], casualty_ne: tuple[float, float],
-              args: argparse.Namespace) -> dict[str, Any]:
-    """:func:`plan` for a boat at ``here`` (north-east metres in ``frame``); also used by campaigns
-    (``usv campaign``), which fly the same plan in-process."""
+              args: argparse.Namespace, drift: Drift | None = None) -> dict[str, Any]:
+    """:func:`plan` for a boat at ``here`` (north-east metres in ``frame``) in water drifting at
+    ``drift`` (north m/s, east m/s, confidence; the vehicle's USV_CURRENT_ESTIMATE); also used by
+    campaigns (``usv campaign``), which fly the same plan in-process.
+
+    In moving water (see :func:`upstream_unit`) the launch point is ``--standoff`` metres
+    downstream of the casualty and the last ``--slow-down`` metres are run against the current:
+    a jet boat that cannot reverse stops and holds station only bow into the current, so that is
+    where its bow can stay on the casualty for the launcher's aim (USV_LNCH_HOLD_S), and the
+    current brakes the approach instead of carrying the boat onto the person.  A route to the
+    slow-down point that would pass closer than the standoff to the casualty goes round them
+    through a waypoint abeam, twice the standoff away.  In slack water the launch point is on
+    the straight line from the boat."""
     dn, de = casualty_ne[0] - here[0], casualty_ne[1] - here[1]
     dist = math.hypot(dn, de)
     if dist <= args.standoff:
         raise MissionError(f"casualty is {dist:.0f} m away, closer than the standoff ({args.standoff:.0f} m)")
-    un, ue = dn / dist, de / dist
+    upstream = upstream_unit(drift, args)
+    un, ue = upstream if upstream is not None else (dn / dist, de / dist)
     launch_ne = (casualty_ne[0] - args.standoff * un, casualty_ne[1] - args.standoff * ue)
     bearing_deg = math.degrees(math.atan2(ue, un)) % 360.0
-    slow_m = min(args.slow_down, dist - args.standoff)
+    slow_m = args.slow_down if upstream is not None else min(args.slow_down, dist - args.standoff)
     slow_ne = (launch_ne[0] - slow_m * un, launch_ne[1] - slow_m * ue)
+    detour_ne = _detour(here, slow_ne, casualty_ne, (un, ue), args.standoff)
+    items: list[tuple[str, int, tuple[float, float] | None, tuple[float, ...]]] = [
+        ("approach speed", CMD_DO_CHANGE_SPEED, None, (1.0, args.approach_speed, -1.0))]
+    if detour_ne is not None:
+        items.append(("round the casualty", CMD_NAV_WAYPOINT, frame.to_lat_lon(*detour_ne), ()))
     launch_ll = frame.to_lat_lon(*launch_ne)
-    items = [
-        _item(0, CMD_DO_CHANGE_SPEED, None, 1.0, args.approach_speed, -1.0),
-        _item(1, CMD_NAV_WAYPOINT, frame.to_lat_lon(*slow_ne)),
-        _item(2, CMD_DO_CHANGE_SPEED, None, 1.0, args.slow_speed, -1.0),
-        _item(LAUNCH_SEQ, UsvCmd.NAV_LAUNCH_AT, launch_ll, bearing_deg),
-        _item(4, CMD_NAV_LOITER_TIME, launch_ll, args.hold),
-        _item(5, CMD_DO_CHANGE_SPEED, None, 1.0, args.tow_speed, -1.0),
-        _item(6, CMD_NAV_RETURN_TO_LAUNCH),
+    items += [
+        ("approach", CMD_NAV_WAYPOINT, frame.to_lat_lon(*slow_ne), ()),
+        ("slow down", CMD_DO_CHANGE_SPEED, None, (1.0, args.slow_speed, -1.0)),
+        ("stop, aim and fire", UsvCmd.NAV_LAUNCH_AT, launch_ll, (bearing_deg,)),
+        ("hold: person pulled alongside", CMD_NAV_LOITER_TIME, launch_ll, (args.hold,)),
+        ("towing speed", CMD_DO_CHANGE_SPEED, None, (1.0, args.tow_speed, -1.0)),
+        ("tow home", CMD_NAV_RETURN_TO_LAUNCH, None, ()),
     ]
-    names = ["approach speed", "approach", "slow down", "stop, aim and fire", "hold: person pulled alongside",
-             "towing speed", "tow home"]
-    return {"items": items, "names": names, "launch_ne": launch_ne, "slow_ne": slow_ne,
-            "bearing_deg": bearing_deg}
+    names = [name for name, *_ in items]
+    return {"items": [_item(seq, cmd, ll, *params) for seq, (_, cmd, ll, params) in enumerate(items)],
+            "names": names, "launch_ne": launch_ne, "slow_ne": slow_ne, "detour_ne": detour_ne,
+            "bearing_deg": bearing_deg, "approach": "upstream" if upstream is not None else "direct",
+            "seq": {"slow": names.index("approach"), "launch": names.index("stop, aim and fire"),
+                    "hold": names.index("hold: person pulled alongside")}}
+
+
+def _detour(here: tuple[float, float], to: tuple[float, float], casualty: tuple[float, float],
+            toward: tuple[float, float], standoff_m: float) -> tuple[float, float] | None:
+    """A waypoint abeam of the casualty (``2 * standoff_m`` across ``toward``, on the boat's side)
+    when the straight leg ``here`` -> ``to`` passes closer than ``standoff_m`` to them."""
+    sn, se = to[0] - here[0], to[1] - here[1]
+    length2 = sn * sn + se * se
+    cn, ce = casualty[0] - here[0], casualty[1] - here[1]
+    s = 0.0 if length2 == 0.0 else min(1.0, max(0.0, (cn * sn + ce * se) / length2))
+    if math.hypot(cn - s * sn, ce - s * se) >= standoff_m:
+        return None
+    across = (-toward[1], toward[0])
+    side = 1.0 if (-cn) * across[0] + (-ce) * across[1] >= 0.0 else -1.0
+    away_m = 2.0 * standoff_m * side
+    return (casualty[0] + away_m * across[0], casualty[1] + away_m * across[1])
 
 
 async def check_launcher(boat: Boat) -> dict[str, Any]:
@@ -186,7 +254,7 @@ def aiming_report(boat: Boat, p: dict[str, Any], casualty_ne: tuple[float, float
     bow within ``--bearing-tol`` (the vehicle fires after USV_LNCH_HOLD_S, 3 s) -- figures for a
     launch that never came."""
     frame = boat.frame()
-    since_s = boat.rec.current_since.get(LAUNCH_SEQ, math.inf)
+    since_s = boat.rec.current_since.get(p["seq"]["launch"], math.inf)
     near, stopped_errors, aimed_since, longest_aimed_s = 0, [], None, 0.0
     points = [pt for pt in boat.rec.track if pt.t_s >= since_s]
     for pt in points:
@@ -228,23 +296,35 @@ async def rescue(boat: Boat, args: argparse.Namespace) -> int:
     await boat.arm()
     frame = boat.frame()
     casualty_ne = frame.to_ne(*args.casualty_at) if args.casualty_at else args.casualty
+    if args.approach == "upstream":  # a few seconds after boot the vehicle knows the drift
+        with contextlib.suppress(MissionError):
+            await boat.until(lambda: confident(boat.rec.water_current), CURRENT_WAIT_S,
+                             "a confident current estimate")
     p = plan(boat, casualty_ne, args)
-    print(f"{NAME}: casualty {casualty_ne[0]:.0f} m N {casualty_ne[1]:.0f} m E of home; launch from "
-          f"{args.standoff:.0f} m on bearing {p['bearing_deg']:.0f} deg", flush=True)
+    est = boat.rec.water_current
+    drift = ("no current estimate" if est is None else
+             f"current estimate {est.speed_mps:.2f} m/s toward {est.toward_deg:.0f} deg")
+    print(f"{NAME}: casualty {casualty_ne[0]:.0f} m N {casualty_ne[1]:.0f} m E of home; {drift}; launch from "
+          f"{args.standoff:.0f} m on bearing {p['bearing_deg']:.0f} deg ({p['approach']} approach"
+          f"{', round the casualty' if p['detour_ne'] else ''})", flush=True)
 
     try:
         start_s = await boat.run_raw_mission(p["items"], args.timeout, lambda seq: p["names"][seq],
-                                             {LAUNCH_SEQ: args.aim_timeout})
+                                             {p["seq"]["launch"]: args.aim_timeout})
     except MissionError as exc:
         exc.details = {"launched": False, "aiming": aiming_report(boat, p, casualty_ne, args)}
         raise
-    station_s = arrival_s(boat, p["launch_ne"], boat.rec.reached.get(1, start_s), args.launch_tol)
-    left_station_s = boat.rec.reached.get(4, boat.now_s())
+    slowed_s = boat.rec.reached.get(p["seq"]["slow"], start_s)
+    station_s = arrival_s(boat, p["launch_ne"], slowed_s, args.launch_tol)
+    left_station_s = boat.rec.reached.get(p["seq"]["hold"], boat.now_s())
     report = launch_report(boat, before, casualty_ne, p, start_s, station_s)
     home_m = await boat.go_home_and_disarm(wp_radius_m, args.timeout)
     summary = {
         "casualty_north_m": round(casualty_ne[0], 1), "casualty_east_m": round(casualty_ne[1], 1),
-        "standoff_m": args.standoff, "launch_bearing_planned_deg": round(p["bearing_deg"], 1), **report,
+        "standoff_m": args.standoff, "approach": p["approach"],
+        "current_estimate_mps": None if est is None else round(est.speed_mps, 2),
+        "current_toward_deg": None if est is None else round(est.toward_deg, 1),
+        "launch_bearing_planned_deg": round(p["bearing_deg"], 1), **report,
         "time_on_station_s": None if station_s is None else round(left_station_s - station_s, 1),
         "mission_time_s": round(boat.now_s() - start_s, 1),
         "home_distance_at_disarm_m": round(home_m, 2), "wp_radius_m": wp_radius_m,

@@ -76,7 +76,7 @@ class Plan:
     """A script's plan for this run: items, item time limits, and what the figures need."""
 
     def __init__(self, spec: CampaignSpec, frame: LocalFrame, here_ne: tuple[float, float],
-                 turn_radius_m: float) -> None:
+                 turn_radius_m: float, drift: tuple[float, float, float] | None = None) -> None:
         self.script = spec.script
         self.args = spec.script_args()
         self.limits_s: dict[int, float] = {}
@@ -92,9 +92,9 @@ class Plan:
             at, offset = self.args.casualty_at, self.args.casualty
             self.casualty_ne: tuple[float, float] = (frame.to_ne(*at) if at else
                                                      (float(offset[0]), float(offset[1])))
-            self.geometry = rescue.plan_from(frame, here_ne, self.casualty_ne, self.args)
+            self.geometry = rescue.plan_from(frame, here_ne, self.casualty_ne, self.args, drift)
             raw = self.geometry["items"]
-            self.limits_s = {rescue.LAUNCH_SEQ: float(self.args.aim_timeout)}
+            self.limits_s = {self.geometry["seq"]["launch"]: float(self.args.aim_timeout)}
         self.items = [companion_item(i) for i in raw]
 
 
@@ -128,9 +128,17 @@ async def fly(spec: CampaignSpec, sample: Sample, workdir: Path) -> dict[str, An
                 raise RunFailed(f"arming refused: {reason}")
             home = (vehicle.home.lat_deg, vehicle.home.lon_deg)
             frame = LocalFrame(*home)
+            if spec.script == "rescue":  # the script waits so for USV_CURRENT_ESTIMATE
+                from missions.rescue import CURRENT_WAIT_S, MIN_CONFIDENCE
+
+                await h.run_until(lambda: (e := vehicle.water_current) is not None
+                                  and e.confidence >= MIN_CONFIDENCE, CURRENT_WAIT_S, POLL_S)
             nav = vehicle.nav()
             assert nav is not None
-            plan = Plan(spec, frame, frame.to_ne(nav.lat_deg, nav.lon_deg), h.ctx.params.get("USV_TURN_RAD"))
+            est = vehicle.water_current
+            drift = None if est is None else (est.north_mps, est.east_mps, est.confidence)
+            plan = Plan(spec, frame, frame.to_ne(nav.lat_deg, nav.lon_deg), h.ctx.params.get("USV_TURN_RAD"),
+                        drift)
             problem = h.services.mavlink.missions.install(MissionType.MISSION, plan.items)
             if problem is not None:
                 raise RunFailed(f"mission refused: {problem.reason}")
@@ -245,10 +253,12 @@ def _figures(plan: Plan, truth: nav_metrics.Truth, t0: float, t_end: float, reac
         from missions import rescue
 
         geo = plan.geometry
-        launch_seq = rescue.LAUNCH_SEQ
-        legs = nav_metrics.square(truth, t0, reached.get(launch_seq, t_end),
-                                  [geo["slow_ne"], geo["launch_ne"]],
-                                  {k: reached[s] for k, s in ((1, 1), (2, launch_seq)) if s in reached})
+        launch_seq = geo["seq"]["launch"]
+        corners = [(geo["slow_ne"], geo["seq"]["slow"]), (geo["launch_ne"], launch_seq)]
+        if geo["detour_ne"] is not None:  # the waypoint round the casualty, just before the slow-down one
+            corners.insert(0, (geo["detour_ne"], geo["seq"]["slow"] - 1))
+        times = {k: reached[seq] for k, (_, seq) in enumerate(corners, 1) if seq in reached}
+        legs = nav_metrics.square(truth, t0, reached.get(launch_seq, t_end), [ne for ne, _ in corners], times)
         report: dict[str, Any] = {"launched": bool(launches)}
         if launches:
             ev = launches[0]
@@ -260,9 +270,8 @@ def _figures(plan: Plan, truth: nav_metrics.Truth, t0: float, t_end: float, reac
         launch_failures = rescue.launch_failures(report, args)
         failures += launch_failures
         out.update(launches=len(launches), launches_within_tol=int(bool(launches) and not launch_failures))
-        hold = launch_seq + 1
         if launch_seq in reached:
-            hold_end = reached.get(hold, t_end)
+            hold_end = reached.get(geo["seq"]["hold"], t_end)
             wp = nav_metrics.arrival(truth, reached[launch_seq], hold_end, geo["launch_ne"], args.launch_tol)
             out["loiter_error_max_m"] = _nan_to_none(wp["after_arrival_max_m"])
     out.update(path_deviation_max_m=legs["side_max_m"], mid_leg_cross_track_rms_m=_nan_to_none(
