@@ -155,7 +155,7 @@ def plan_from(frame: LocalFrame, here: tuple[float, float], casualty_ne: tuple[f
     items += [
         ("approach", CMD_NAV_WAYPOINT, frame.to_lat_lon(*slow_ne), ()),
         ("slow down", CMD_DO_CHANGE_SPEED, None, (1.0, args.slow_speed, -1.0)),
-        ("stop, aim and fire", UsvCmd.NAV_LAUNCH_AT, launch_ll, (bearing_deg,)),
+        ("stop, aim and fire", UsvCmd.NAV_LAUNCH_AT, launch_ll, (bearing_deg, 0.0, args.standoff)),
         ("hold: person pulled alongside", CMD_NAV_LOITER_TIME, launch_ll, (args.hold,)),
         ("towing speed", CMD_DO_CHANGE_SPEED, None, (1.0, args.tow_speed, -1.0)),
         ("tow home", CMD_NAV_RETURN_TO_LAUNCH, None, ()),

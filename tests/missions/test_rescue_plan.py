@@ -64,7 +64,7 @@ def test_a_route_that_would_cross_the_casualty_goes_round_them() -> None:
     assert names[p["seq"]["slow"] - 1] == "round the casualty"
     assert [item.seq for item in p["items"]] == list(range(len(names)))
     launch = p["items"][p["seq"]["launch"]]
-    assert launch.param1 == pytest.approx(180.0)  # the vehicle aims on this bearing
+    assert launch.param1 == pytest.approx(180.0) and launch.param3 == 15.0  # aimed at the casualty
     assert plan((100.0, 30.0), (0.0, 0.5, 0.9))["detour_ne"] is None
 
 

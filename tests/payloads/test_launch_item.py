@@ -23,23 +23,27 @@ from tests.mavlink.helpers import HOME_LAT_DEG, HOME_LON_DEG, make_ctx, make_veh
 BEARING_DEG = 90.0
 
 
-async def _seconds_to_fire(tmp_path: Path, heading_off_deg: float,
-                           tolerance_deg: float | None) -> float | None:
+async def _seconds_to_fire(tmp_path: Path, heading_off_deg: float, tolerance_deg: float | None,
+                           range_m: float = 0.0, drift_ne_m: tuple[float, float] = (0.0, 0.0)
+                           ) -> float | None:
     ctx = make_ctx()
     if tolerance_deg is not None:
         ctx.params.set("USV_LNCH_HDG_DEG", tolerance_deg, persist=False)
     outputs = PayloadOutputs(ctx.bus, ctx.clock)
-    samplelog = SampleLog(tmp_path / f"log-{heading_off_deg}-{tolerance_deg}.sqlite")
+    samplelog = SampleLog(tmp_path / f"log-{heading_off_deg}-{tolerance_deg}-{range_m}.sqlite")
     env = PayloadEnv(ctx, samplelog, outputs)
     vehicle = make_vehicle(ctx)
     run = AutoRun(vehicle, {})
-    lat, lon = LocalFrame(HOME_LAT_DEG, HOME_LON_DEG).to_lat_lon(20.0, 0.0)
-    mission_item = MissionItem.at(1, UsvCmd.NAV_LAUNCH_AT, lat, lon, param1=BEARING_DEG, param2=2.0)
+    frame = LocalFrame(HOME_LAT_DEG, HOME_LON_DEG)
+    lat, lon = frame.to_lat_lon(20.0, 0.0)
+    mission_item = MissionItem.at(1, UsvCmd.NAV_LAUNCH_AT, lat, lon, param1=BEARING_DEG, param2=2.0,
+                                  param3=range_m)
+    at_lat, at_lon = frame.to_lat_lon(20.0 + drift_ne_m[0], drift_ne_m[1])
     item = LaunchAtItem(run, mission_item, RopeLauncher(ctx, outputs, samplelog), env)
     heading = math.radians(BEARING_DEG + heading_off_deg)
     try:
         for k in range(100):  # 10 s at 10 Hz, stopped on the point
-            nav = nav_sample(0.1 * k, lat_deg=lat, lon_deg=lon, heading_rad=heading)
+            nav = nav_sample(0.1 * k, lat_deg=at_lat, lon_deg=at_lon, heading_rad=heading)
             if k == 0:
                 assert item.arrive(nav) is False and run.phase is Phase.ACTION
             item.hold(nav)
@@ -65,3 +69,13 @@ async def test_fires_only_with_the_bow_within_the_parameter(tmp_path: Path, off_
         assert t_s is not None and 2.0 <= t_s <= 2.2  # after the item's 2 s hold
     else:
         assert t_s is None
+
+
+@pytest.mark.parametrize(("off_deg", "fires"), [
+    (18.4, True),   # the bow on the target 15 m east of the launch point, seen from 5 m north of it
+    (0.0, False),   # on the item's bearing: 18 deg off the target, the throw would miss
+])
+async def test_with_a_range_the_bow_is_aimed_at_the_target_from_where_the_boat_holds(
+        tmp_path: Path, off_deg: float, fires: bool) -> None:
+    t_s = await _seconds_to_fire(tmp_path, off_deg, None, range_m=15.0, drift_ne_m=(5.0, 0.0))
+    assert (t_s is not None) is fires

@@ -46,6 +46,7 @@ def validator(tmp_path) -> MissionValidator:
     _item(UsvCmd.NAV_SAMPLE_HERE), _item(UsvCmd.NAV_SAMPLE_HERE, 4, 2.0, 30.0, 250.0),
     _item(UsvCmd.NAV_SAMPLE_HERE, NAN, NAN, NAN, NAN), _item(UsvCmd.NAV_LAUNCH_AT, NAN),
     _item(UsvCmd.NAV_LAUNCH_AT, 359.5, 5.0), _item(UsvCmd.NAV_LAUNCH_AT, 0.0),
+    _item(UsvCmd.NAV_LAUNCH_AT, 90.0, 0.0, 15.0), _item(UsvCmd.NAV_LAUNCH_AT, 90.0, 0.0, NAN),
 ])
 def test_good_payload_items_accepted(item: MissionItem, validator: MissionValidator) -> None:
     assert validator.validate_item(item) is None
@@ -69,6 +70,9 @@ def test_good_payload_items_accepted(item: MissionItem, validator: MissionValida
     (_item(UsvCmd.NAV_LAUNCH_AT, -10.0), v.INVALID_PARAM1),
     (_item(UsvCmd.NAV_LAUNCH_AT, NAN, -1.0), v.INVALID_PARAM2),
     (_item(UsvCmd.NAV_LAUNCH_AT, NAN, 1e5), v.INVALID_PARAM2),
+    (_item(UsvCmd.NAV_LAUNCH_AT, 90.0, 0.0, -5.0), v.INVALID_PARAM3),
+    (_item(UsvCmd.NAV_LAUNCH_AT, 90.0, 0.0, 200.0), v.INVALID_PARAM3),  # beyond the rope
+    (_item(UsvCmd.NAV_LAUNCH_AT, 90.0, 0.0, math.inf), v.INVALID_PARAM3),
 ])
 def test_bad_payload_items_refused_with_code(item: MissionItem, code: int,
                                             validator: MissionValidator) -> None:

@@ -1,8 +1,12 @@
 """USV_CMD_NAV_LAUNCH_AT (31000): "fire the rope launcher at a point", in AUTO and at upload.
 
 param1 bearing (deg; NaN: keep the heading on arrival), param2 hold time (s; 0/NaN:
-USV_LNCH_HOLD_S), param5/6 the point.  The upload check refuses a bearing outside [0, 360]
-(INVALID_PARAM1), a hold outside USV_LNCH_HOLD_S's range (INVALID_PARAM2) and coordinates off
+USV_LNCH_HOLD_S), param3 range to the target (m; 0/NaN: none), param5/6 the point.  With a range
+the target is that far from the launch point on the bearing, and the bow is aimed at the target
+from wherever the boat holds (a boat keeping station drifts a few metres; on the bearing alone
+the throw would miss by the drift).  The upload check refuses a bearing outside [0, 360]
+(INVALID_PARAM1), a hold outside USV_LNCH_HOLD_S's range (INVALID_PARAM2), a range that is
+negative, not finite or beyond the rope's :data:`MAX_RANGE_M` (INVALID_PARAM3) and coordinates off
 the globe (INVALID_PARAM5_X / 6_Y).
 """
 
@@ -27,6 +31,8 @@ LAUNCH_MAX_DIST_M = 8.0
 """Farther than this from the launch point, the boat goes back to it before turning to fire."""
 LAUNCH_MAX_SPEED_MPS = 1.8
 """'Stopped' for a water jet holding a heading: steerage way is about 1.5 m/s in SITL."""
+MAX_RANGE_M = 150.0
+"""The rope launcher's farthest throw (chapter section 4.1)."""
 
 
 def check_launch_at(item: MissionItem) -> v.ItemProblem | None:
@@ -39,6 +45,10 @@ def check_launch_at(item: MissionItem) -> v.ItemProblem | None:
     if not is_default(item.param2) and not in_range(item.param2, hold):
         return v.ItemProblem(v.INVALID_PARAM2,
                              f"item {s}: hold {item.param2:g} s not in {hold[0]:g}-{hold[1]:g} s")
+    target_m = item.param3
+    if not is_default(target_m) and not (math.isfinite(target_m) and 0.0 < target_m <= MAX_RANGE_M):
+        return v.ItemProblem(v.INVALID_PARAM3, f"item {s}: range {target_m:g} m not in 0-{MAX_RANGE_M:g} m "
+                                               "(0 or NaN: fire on the bearing)")
     return check_coordinates(item)
 
 
@@ -94,6 +104,8 @@ class LaunchAtItem(NavItem):
         self.launcher = launcher
         self.env = env
         self.bearing_rad = 0.0
+        self.target_ne: tuple[float, float] | None = None
+        """The target (north, east metres from the launch point) when the item gives its range."""
         self.steer: _HeadingTask | None = None
         self.fire: asyncio.Task[str | None] | None = None
 
@@ -103,16 +115,29 @@ class LaunchAtItem(NavItem):
         p1 = self.item.param1
         self.bearing_rad = math.radians(p1) if math.isfinite(p1) else nav.heading_rad
         station = StationTask(run.host.params, self.point, self.bearing_rad)
+        range_m = self.item.param3
+        if math.isfinite(range_m) and range_m > 0.0:
+            self.target_ne = (range_m * math.cos(self.bearing_rad), range_m * math.sin(self.bearing_rad))
         run.task = station
         self.steer = _HeadingTask(self.bearing_rad, station, speed_mps=0.0)
         return False
+
+    def _aim_rad(self, nav: NavState) -> float:
+        """The bearing to fire on: to the target from where the boat is (a range was given), else
+        the item's bearing."""
+        if self.target_ne is None or self.steer is None:
+            return self.bearing_rad
+        north_m, east_m = self.steer.frame.to_ne(nav.lat_deg, nav.lon_deg)
+        return math.atan2(self.target_ne[1] - east_m, self.target_ne[0] - north_m)
 
     def hold(self, nav: NavState) -> bool:
         if self.fire is not None:
             return self.fire.done()
         run, params = self.run, self.run.host.params
         assert self.steer is not None
-        err = abs(wrap_pi(self.bearing_rad - nav.heading_rad))
+        aim_rad = self._aim_rad(nav)
+        self.steer.heading_rad = aim_rad
+        err = abs(wrap_pi(aim_rad - nav.heading_rad))
         hold = self.item.param2 if self.item.param2 > 0 else params.get_or("USV_LNCH_HOLD_S", 3.0)
         station = self.steer.inner
         if station.distance_m > LAUNCH_MAX_DIST_M:
