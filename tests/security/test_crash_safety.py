@@ -6,9 +6,10 @@ classes on one state directory -- :class:`~companion.params.ParamStore` (params.
 :class:`~companion.payloads.samplelog.SampleLog` (a launch and the launcher's shot counter in
 one transaction) -- and acknowledges each write on a pipe once the store call has returned,
 as the vehicle answers PARAM_VALUE / MISSION_ACK only after saving.  The test kills it with
-SIGKILL after a random delay, reopens every store as a restarted companion would, and checks:
-nothing is corrupt (no load warning, SQLite integrity ok) and every acknowledged write is there
-(each target holds its last acknowledged value, or the one write in flight at the kill).
+SIGKILL after its first acknowledged write and a random delay, reopens every store as a
+restarted companion would, and checks: nothing is corrupt (no load warning, SQLite integrity ok)
+and every acknowledged write is there (each target holds its last acknowledged value, or the one
+write in flight at the kill).
 """
 
 from __future__ import annotations
@@ -114,8 +115,16 @@ def run_writer(state: Path, first_n: int) -> tuple[int, int]:
     return pid, read_fd
 
 
-def read_acks(fd: int) -> list[int]:
+def first_ack(fd: int) -> bytes:
+    """Block until the writer has acknowledged its first write (it has opened the stores and is
+    writing); what was read, to be passed on to :func:`read_acks`."""
     data = b""
+    while b"\n" not in data and (chunk := os.read(fd, 65536)):
+        data += chunk
+    return data
+
+
+def read_acks(fd: int, data: bytes = b"") -> list[int]:
     while chunk := os.read(fd, 65536):
         data += chunk
     os.close(fd)
@@ -133,11 +142,12 @@ def test_sigkill_at_100_random_points_loses_no_acknowledged_write(tmp_path: Path
     temp_files: set[Path] = set()
     for kill_point in range(KILL_POINTS):
         pid, fd = run_writer(state, next_n)
+        started = first_ack(fd)  # kill while writes go on, not while a loaded machine starts the writer
         time.sleep(rng.uniform(0.0, MAX_DELAY_S))
         os.kill(pid, signal.SIGKILL)
         _, status = os.waitpid(pid, 0)
         assert os.WIFSIGNALED(status) and os.WTERMSIG(status) == signal.SIGKILL
-        acks = read_acks(fd)
+        acks = read_acks(fd, started)
         assert acks == list(range(next_n, next_n + len(acks)))
         for n in acks:
             committed[target_of(n)] = expected_value(n)
