@@ -148,7 +148,7 @@ class EstimatorStage:
 
     def step(self, nav: NavState, applied: ActuatorCommand | None) -> ModelError | None:
         """One predict+update for ``nav`` with the input ``applied`` since the last sample
-        (``None``: nothing applied yet, throttle 0 and nozzle centred)."""
+        (``None``: nothing applied yet, throttle 0 and nozzle centred; ignition off: throttle 0)."""
         u_mps, v_mps, r_radps = nav.u_mps, nav.v_mps, nav.r_radps
         needs_heading = self.ukf.n == 8 or self.current_ukf is not None
         # math.isfinite on the three floats: what np.all(np.isfinite(z)) says, at 1/40 of its cost
@@ -157,7 +157,9 @@ class EstimatorStage:
             self._warn(f"non-finite navigation sample at t={nav.t_s}")
             return None
         z = np.array((u_mps, v_mps, r_radps))
-        thr = applied.throttle if applied is not None else 0.0
+        # the engine's input: no thrust with the ignition off (a disarmed boat coasts and drifts
+        # while its mode may still ask the controller for throttle; that thrust never happened)
+        thr = applied.throttle if applied is not None and applied.ignition_on else 0.0
         nozzle = applied.nozzle_rad if applied is not None else 0.0
         if self._t_last is None or not 0.0 < nav.t_s - self._t_last <= MAX_GAP_S:
             if self._t_last is not None and nav.t_s <= self._t_last:

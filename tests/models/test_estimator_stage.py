@@ -47,7 +47,7 @@ def test_filterpy_backend_estimates_what_the_native_one_does(tmp_path: Path) -> 
     outs = []
     for backend in ("native", "filterpy"):
         stage = _stage(tmp_path, **{"models.ukf": "current", "models.ukf_backend": backend})
-        applied = ActuatorCommand(0.0, 0.2, 0.4)
+        applied = ActuatorCommand(0.0, 0.2, 0.4, ignition_on=True)
         err = None
         for k in range(200):
             nav = _nav(0.01 * k, 1.5 + 0.1 * math.sin(0.1 * k))
@@ -82,7 +82,7 @@ def test_default_runs_the_chapter_filter_for_the_controller_and_a_current_filter
                              load_companion_ukf_backend(cfg), load_companion_current_settings(cfg))
     chapter = _stage(tmp_path)
     alone = _stage(tmp_path, **{"models.ukf": "current"})
-    applied = ActuatorCommand(0.0, 0.3, 0.3)
+    applied = ActuatorCommand(0.0, 0.3, 0.3, ignition_on=True)
     for nav in _turning_navs(1500):
         err, ref = default.step(nav, applied), chapter.step(nav, applied)
         alone.step(nav, applied)
@@ -92,6 +92,22 @@ def test_default_runs_the_chapter_filter_for_the_controller_and_a_current_filter
         (alone.current.north_mps, alone.current.east_mps), abs=1e-9)
     assert load_companion_current_settings(cfg.with_overrides({"models.current_estimator": "none"})) is None
     assert load_companion_current_settings(cfg.with_overrides({"models.ukf": "current"})) is None
+
+
+def test_with_the_ignition_off_the_filters_see_no_thrust(tmp_path: Path) -> None:
+    """A disarmed boat coasts and drifts while its mode (RTL, LOITER, AUTO) may still ask the
+    controller for throttle: with the engine off that thrust is not there, so the current is
+    estimated as with the throttle at zero (before, the current estimate turned 40-90 deg and lost
+    a third of its speed within 10 s of a disarm in a 0.5 m/s flood)."""
+    off, zero, running = (_stage(tmp_path, **{"models.ukf": "current"}) for _ in range(3))
+    for nav in _turning_navs(600):
+        off.step(nav, ActuatorCommand(nav.t_s, 0.2, 0.6, ignition_on=False))
+        zero.step(nav, ActuatorCommand(nav.t_s, 0.2, 0.0, ignition_on=True))
+        running.step(nav, ActuatorCommand(nav.t_s, 0.2, 0.6, ignition_on=True))
+    assert off.current is not None and zero.current is not None and running.current is not None
+    assert (off.current.north_mps, off.current.east_mps) == (zero.current.north_mps, zero.current.east_mps)
+    assert (off.current.north_mps, off.current.east_mps) != pytest.approx(
+        (running.current.north_mps, running.current.east_mps), abs=1e-3)
 
 
 def test_chapter_filter_estimates_no_current(tmp_path: Path) -> None:
