@@ -21,7 +21,13 @@ from dataclasses import replace
 from companion.control.target import ControlTarget
 from companion.guidance.geo import LocalFrame
 from companion.guidance.hold_params import HOLD_CURRENT, current_station_gains, orbit_gains
-from companion.guidance.holding import CurrentStationKeeper, DriftOrbit, HoldStrategy, pick_strategy
+from companion.guidance.holding import (
+    CurrentStationKeeper,
+    DriftOrbit,
+    HoldStrategy,
+    orbit_clockwise,
+    pick_strategy,
+)
 from companion.messages import NavState
 from companion.modes.host import ModeHost
 from companion.modes.navigation import GotoTask
@@ -123,22 +129,6 @@ def hold_task(host: ModeHost, point: tuple[float, float],
         return CurrentStationTask(host.params, point, heading, _current_source(host), current)
     return OrbitTask(host.params, point, _current_source(host), current,
                      orbit_clockwise(nav.heading_rad, nav.r_radps, current))
-
-
-ENTRY_CURRENT_MPS = 0.15
-"""Above this current the orbit turns toward upstream on entry, below it the way the boat turns."""
-
-
-def orbit_clockwise(heading_rad: float, yaw_rate_radps: float, current_ne_mps: tuple[float, float]) -> bool:
-    """The orbit's direction for a boat entering it at its centre: the entry turn (radius rho
-    through the water) is centred at bearing ``heading + lam pi/2``; with that centre upstream the
-    current sets the boat back toward the point while it turns (the opposite way it carries it
-    ``|V_c| T`` farther out, 2-3 m in 0.5 m/s); in slack water the boat keeps turning the way it
-    turns (``yaw_rate_radps`` > 0 is clockwise)."""
-    if math.hypot(*current_ne_mps) > ENTRY_CURRENT_MPS:
-        right_n, right_e = math.cos(heading_rad + 0.5 * math.pi), math.sin(heading_rad + 0.5 * math.pi)
-        return right_n * current_ne_mps[0] + right_e * current_ne_mps[1] < 0.0
-    return yaw_rate_radps >= 0.0
 
 
 HANDOVER_FRACTION = 0.75
