@@ -176,19 +176,24 @@ class DriftOrbit:
         """One step; ``heading_rad`` is the boat's.  Entered inside the circle (LOITER starts at
         its point, GUIDED hands over on it), the boat turns at once the orbit's way, at the
         orbit's water speed: the heading command leads the bow by ``entry_lead_rad`` until the
-        boat first reaches the circle.  A boat that cannot stop, moving through its point with
-        turning radius rho, stays within 2 rho of it only by turning at once (any straight
-        stretch first takes it farther; module docstring); holding the entry heading until half
-        the radius, as before, let it run out at speed and swing 7-9 m wide before it settled
-        (usv bench nav, 0.5 m/s)."""
+        bow points within ``entry_join_rad`` of the orbit's heading or has turned
+        ``entry_turn_rad`` (a boat still fast when it crosses the circle keeps turning the orbit's
+        way instead of being turned back by the field); entered from outside the circle, the
+        field steers at once.  A boat that cannot stop, moving through its point with turning
+        radius rho, stays within 2 rho of it only by turning at once (any straight stretch
+        first takes it farther); holding the entry heading out to half the radius, as before,
+        let it run out at speed and swing 7-9 m wide before it settled (usv bench nav, 0.5 m/s
+        reporting cell; 3.5-4.6 m with the entry turn, docs/tuning.md)."""
         g, lam, big_r = self.gains, self.lam, self.radius_m
         d, phi = distance_bearing(pos_ne[0] - self.centre_ne[0], pos_ne[1] - self.centre_ne[1])
         e_r = d - big_r
+        if self._last_heading_rad is None and d >= big_r:
+            self._entering = False  # entered from outside: the field brings the boat in
         if self._entering and self._last_heading_rad is not None:
             self._turned_rad += lam * wrap_pi(heading_rad - self._last_heading_rad)
         self._last_heading_rad = heading_rad
         field = self._field(d, phi, e_r, current_ne_mps, dt_s if not self._entering else 0.0)
-        if self._entering and d < big_r and self._turned_rad < g.entry_turn_rad \
+        if self._entering and self._turned_rad < g.entry_turn_rad \
                 and (d < 0.25 * big_r or abs(wrap_pi(field.heading_rad - heading_rad)) > g.entry_join_rad):
             u_w = self.water_speed_mps(current_ne_mps)
             psi = wrap_2pi(heading_rad + lam * g.entry_lead_rad)

@@ -103,6 +103,19 @@ def test_orbit_entry_turn_ends_after_three_quarters_of_a_turn_inside_the_circle(
     assert abs(math.remainder(out.heading_rad - (heading + math.pi / 2), 2 * math.pi)) > 0.1
 
 
+def test_orbit_entry_turn_goes_on_past_the_circle_until_the_bow_joins_and_not_from_outside() -> None:
+    orbit = DriftOrbit((0.0, 0.0), 2.0, clockwise=True)
+    orbit.update((0.0, 0.0), (0.0, 0.0), 0.01, heading_rad=0.0)
+    # 3 m north of the point still heading north (fast entry): keep turning to starboard
+    out = orbit.update((3.0, 0.0), (0.0, 0.0), 0.01, heading_rad=0.1)
+    assert math.remainder(out.heading_rad - 0.1, 2 * math.pi) == pytest.approx(math.pi / 2)
+    # a GUIDED hand-over 3 m out: the field at once (toward the circle, not a lead on the bow)
+    outside = DriftOrbit((0.0, 0.0), 2.0, clockwise=True)
+    out = outside.update((3.0, 0.0), (0.0, 0.0), 0.01, heading_rad=0.1)
+    assert math.remainder(out.heading_rad - 0.1, 2 * math.pi) != pytest.approx(math.pi / 2)
+    assert math.cos(out.heading_rad - math.pi) > 0.0  # southward, back toward the circle
+
+
 @pytest.mark.parametrize(("heading_deg", "current", "clockwise"), [
     (90.0, (-0.5, 0.0), False),  # heading east, current toward south: turn left, centre upstream (north)
     (90.0, (0.5, 0.0), True),    # current toward north: turn right, centre south (upstream)
