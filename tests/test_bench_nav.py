@@ -25,15 +25,23 @@ TODAY = "usv bench nav, main at 08b0103, worst of these cells [full grid]: "
 NOW = ("usv bench nav --quick, wip/path 79a807e..64b38ec (4 runs), with wip/hold merged (8dfe91f, 2 runs; "
        "corner braking 0.25 m/s^2 and USV_WP_DRIFT 0, 1 run): ")
 HOLD = "usv bench nav --quick, wip/hold (LOITER/GUIDED/RTL hold from the current estimate): "
+LOITER = ("usv bench nav cells flown alone at --speedup 6 (benchmarks.nav_flight.run_cell), wip/loiter "
+          "(the orbit entered at its centre turns at once, entry turn upstream), reporting seed 102: ")
 MISSED_TODAY = {
     "loiter_max_m_current_below_creep":
-        HOLD + "7.3-9.4 m in three flights (main at 08b0103: 9.3 m [9.3 m], two 7-9 m loops before it "
-               "switched to orbiting): orbits at once, but entered at speed while orbiting the GUIDED "
-               "point the boat swings out before it settles on the 2 m circle (1.7-2.7 m from the point "
-               "once settled)",
+        LOITER + "3.5-4.6 m in four flights, 3.5 m in the last (main at 3ab8456: 9.4 m): the entry "
+                 "turn peaks near 3.5 m and the settled orbit swings out to 2.8-4.5 m on its "
+                 "downstream half, where the boat runs at 2.1-2.4 m/s over ground for 1.5 commanded. "
+        + HOLD + "7.3-9.4 m in three flights (main at 08b0103: 9.3 m [9.3 m], two 7-9 m loops before "
+                 "it switched to orbiting): orbits at once, but entered at speed while orbiting the "
+                 "GUIDED point the boat swings out before it settles on the 2 m circle (1.7-2.7 m from "
+                 "the point once settled)",
     "square_side_max_m": NOW + "1.9-2.6 m; 5.0-6.2 m; 6.1 m (main: 2.3-2.4 m [7.8 m]): corners in "
                                "1.2 m/s, the start of the first leg in 0.5 m/s (after the merge from "
-                               "RTL's orbit)",
+                               "RTL's orbit). " + LOITER + "0.5 m/s cell 1.3-5.4 m in four flights, set "
+                               "by the heading RTL's orbit has when AUTO starts (14 flights: 0.7-1.6 m "
+                               "within 26 deg of the first leg, 5.4-5.9 m at 90 deg, 5.2-10.0 m for a "
+                               "U-turn); 1.2 m/s cell 2.3 (main) / 2.7-3.7 m at the corners",
     "square_mid_leg_rms_m": NOW + "0.37-0.62 m; 0.98 m; 0.40 m (main: 0.45-0.46 m [0.76 m]): the bow swings "
                                   "+-25 deg in beam seas on the legs across a 1.2 m/s current",
     "square_mid_leg_max_m": NOW + "1.0-1.6 m; 3.3 m, the first corner; 1.14 m (main: 1.2-1.3 m [4.2 m])",

@@ -139,6 +139,16 @@ class OrbitGains:
     """Integral gain on the radial error (1/s): a turning hull slips outward through the water,
     which the crab feed-forward does not know; the integral moves the aim point inward."""
     integral_max_m: float = 1.5
+    entry_lead_rad: float = math.radians(90.0)
+    """Entered inside the circle: the heading command leads the bow by this, the orbit's way."""
+    entry_turn_rad: float = math.radians(270.0)
+    """The entry turn ends after the bow has turned this far at most (a turn that stays inside
+    the circle would loop through the point and out the other side)."""
+    entry_join_rad: float = math.radians(30.0)
+    """... and as soon as the bow is within this of the orbit's heading there (the field takes
+    over without a turn the other way: reversing the nozzle at speed ran the boat straight
+    through the point at 2.9 m/s); not within a quarter of the radius of the point, where the
+    field's direction is GPS noise."""
 
 
 class DriftOrbit:
@@ -153,7 +163,9 @@ class DriftOrbit:
         self.lam = 1.0 if clockwise else -1.0
         self.gains = gains or OrbitGains()
         self.integral_m = 0.0
-        self._outward_heading_rad: float | None = None
+        self._entering = True
+        self._turned_rad = 0.0
+        self._last_heading_rad: float | None = None
 
     def water_speed_mps(self, current_ne_mps: tuple[float, float]) -> float:
         g = self.gains
@@ -161,19 +173,39 @@ class DriftOrbit:
 
     def update(self, pos_ne: tuple[float, float], current_ne_mps: tuple[float, float],
                dt_s: float, heading_rad: float) -> HoldOutput:
-        """One step; ``heading_rad`` (the boat's) is held while the boat is within half the radius
-        of the centre (entered at the point: the bearing from the centre is GPS noise there)."""
+        """One step; ``heading_rad`` is the boat's.  Entered inside the circle (LOITER starts at
+        its point, GUIDED hands over on it), the boat turns at once the orbit's way, at the
+        orbit's water speed: the heading command leads the bow by ``entry_lead_rad`` until the
+        bow points within ``entry_join_rad`` of the orbit's heading or has turned
+        ``entry_turn_rad`` (a boat still fast when it crosses the circle keeps turning the orbit's
+        way instead of being turned back by the field); entered from outside the circle, the
+        field steers at once.  A boat that cannot stop, moving through its point with turning
+        radius rho, stays within 2 rho of it only by turning at once (any straight stretch
+        first takes it farther); holding the entry heading out to half the radius, as before,
+        let it run out at speed and swing 7-9 m wide before it settled (usv bench nav, 0.5 m/s
+        reporting cell; 3.5-4.6 m with the entry turn, docs/tuning.md)."""
         g, lam, big_r = self.gains, self.lam, self.radius_m
         d, phi = distance_bearing(pos_ne[0] - self.centre_ne[0], pos_ne[1] - self.centre_ne[1])
         e_r = d - big_r
-        if d < 0.5 * big_r:
+        if self._last_heading_rad is None and d >= big_r:
+            self._entering = False  # entered from outside: the field brings the boat in
+        if self._entering and self._last_heading_rad is not None:
+            self._turned_rad += lam * wrap_pi(heading_rad - self._last_heading_rad)
+        self._last_heading_rad = heading_rad
+        field = self._field(d, phi, e_r, current_ne_mps, dt_s if not self._entering else 0.0)
+        if self._entering and self._turned_rad < g.entry_turn_rad \
+                and (d < 0.25 * big_r or abs(wrap_pi(field.heading_rad - heading_rad)) > g.entry_join_rad):
             u_w = self.water_speed_mps(current_ne_mps)
-            cn_along = current_ne_mps[0] * math.cos(heading_rad) + current_ne_mps[1] * math.sin(heading_rad)
-            surge = u_w + cn_along
-            if self._outward_heading_rad is None:
-                self._outward_heading_rad = wrap_2pi(heading_rad)
-            return HoldOutput(self._outward_heading_rad, surge, 0.0, d, e_r)
-        self._outward_heading_rad = None
+            psi = wrap_2pi(heading_rad + lam * g.entry_lead_rad)
+            surge = u_w + current_ne_mps[0] * math.cos(psi) + current_ne_mps[1] * math.sin(psi)
+            return HoldOutput(psi, surge, lam * u_w / big_r, d, e_r)
+        self._entering = False
+        return field
+
+    def _field(self, d: float, phi: float, e_r: float, current_ne_mps: tuple[float, float],
+               dt_s: float) -> HoldOutput:
+        """The orbit's vector field with the crab feed-forward (module docstring)."""
+        g, lam, big_r = self.gains, self.lam, self.radius_m
         if abs(e_r) < big_r:  # on the circle: what remains is slip, not the approach
             self.integral_m += g.ki_per_s * e_r * dt_s
             self.integral_m = max(-g.integral_max_m, min(g.integral_max_m, self.integral_m))
@@ -190,3 +222,19 @@ class DriftOrbit:
         rate = chi_rate * (1.0 + c_par / (u_w * cos_crab))
         surge = u_w + cn * math.cos(psi) + ce * math.sin(psi)
         return HoldOutput(wrap_2pi(psi), surge, rate, d, e_r)
+
+
+ENTRY_CURRENT_MPS = 0.15
+"""Above this current the orbit turns toward upstream on entry, below it the way the boat turns."""
+
+
+def orbit_clockwise(heading_rad: float, yaw_rate_radps: float, current_ne_mps: tuple[float, float]) -> bool:
+    """The orbit's direction for a boat entering it at its centre: the entry turn (radius rho
+    through the water) is centred at bearing ``heading + lam pi/2``; with that centre upstream the
+    current sets the boat back toward the point while it turns (the opposite way it carries it
+    ``|V_c| T`` farther out, 2-3 m in 0.5 m/s); in slack water the boat keeps turning the way it
+    turns (``yaw_rate_radps`` > 0 is clockwise)."""
+    if math.hypot(*current_ne_mps) > ENTRY_CURRENT_MPS:
+        right_n, right_e = math.cos(heading_rad + 0.5 * math.pi), math.sin(heading_rad + 0.5 * math.pi)
+        return right_n * current_ne_mps[0] + right_e * current_ne_mps[1] < 0.0
+    return yaw_rate_radps >= 0.0

@@ -21,7 +21,13 @@ from dataclasses import replace
 from companion.control.target import ControlTarget
 from companion.guidance.geo import LocalFrame
 from companion.guidance.hold_params import HOLD_CURRENT, current_station_gains, orbit_gains
-from companion.guidance.holding import CurrentStationKeeper, DriftOrbit, HoldStrategy, pick_strategy
+from companion.guidance.holding import (
+    CurrentStationKeeper,
+    DriftOrbit,
+    HoldStrategy,
+    orbit_clockwise,
+    pick_strategy,
+)
 from companion.messages import NavState
 from companion.modes.host import ModeHost
 from companion.modes.navigation import GotoTask
@@ -121,7 +127,8 @@ def hold_task(host: ModeHost, point: tuple[float, float],
         upstream = math.atan2(-est.east_mps, -est.north_mps)
         heading = nav.heading_rad if math.cos(nav.heading_rad - upstream) > 0.0 else upstream
         return CurrentStationTask(host.params, point, heading, _current_source(host), current)
-    return OrbitTask(host.params, point, _current_source(host), current)
+    return OrbitTask(host.params, point, _current_source(host), current,
+                     orbit_clockwise(nav.heading_rad, nav.r_radps, current))
 
 
 HANDOVER_FRACTION = 0.75

@@ -12,6 +12,7 @@ from companion.guidance.holding import (
     DriftOrbit,
     HoldStrategy,
     OrbitGains,
+    orbit_clockwise,
     pick_strategy,
 )
 
@@ -67,10 +68,64 @@ def test_orbit_water_speed_rises_with_the_current_so_the_crab_stays_steerable() 
     assert orbit.water_speed_mps((0.0, 0.8)) == pytest.approx(0.8 / 0.8 + 0.2)
 
 
-def test_orbit_entered_at_its_centre_keeps_the_boats_heading_until_half_the_radius() -> None:
-    orbit = DriftOrbit((0.0, 0.0), 2.0)
-    first = orbit.update((0.1, -0.05), (0.3, 0.0), 0.01, heading_rad=1.0)
-    again = orbit.update((-0.2, 0.3), (0.3, 0.0), 0.01, heading_rad=2.5)  # GPS noise moved the bearing
-    assert first.heading_rad == pytest.approx(1.0) and again.heading_rad == pytest.approx(1.0)
+def test_orbit_entered_at_its_centre_turns_at_once_the_orbits_way_until_the_bow_joins_it() -> None:
+    """LOITER starts on its point: the boat turns the orbit's way at once (the bow led by 90 deg,
+    whatever GPS noise says the bearing from the point is), then the vector field takes over."""
+    for clockwise, sign in ((True, 1.0), (False, -1.0)):
+        orbit = DriftOrbit((0.0, 0.0), 2.0, clockwise=clockwise)
+        first = orbit.update((0.1, -0.05), (0.3, 0.0), 0.01, heading_rad=1.0)
+        again = orbit.update((-0.2, 0.3), (0.3, 0.0), 0.01, heading_rad=1.1)  # noise moved the bearing
+        for out, heading in ((first, 1.0), (again, 1.1)):
+            lead = math.remainder(out.heading_rad - heading, 2 * math.pi)
+            assert lead == pytest.approx(sign * math.pi / 2)
+        assert sign * first.turn_rate_radps > 0.0
+    # on the circle's east side heading (clockwise) south: the bow is on the orbit's heading, the
+    # field steers from there on (and does not go back to the entry turn)
+    orbit = DriftOrbit((0.0, 0.0), 2.0, clockwise=True)
+    orbit.update((0.0, 0.0), (0.0, 0.0), 0.01, heading_rad=0.0)
+    joined = orbit.update((0.0, 1.5), (0.0, 0.0), 0.01, heading_rad=math.pi)
+    assert abs(math.remainder(joined.heading_rad - math.pi, 2 * math.pi)) < math.radians(30.0)
+    later = orbit.update((0.0, 0.2), (0.0, 0.0), 0.01, heading_rad=math.pi)
+    assert abs(math.remainder(later.heading_rad - 1.5 * math.pi, 2 * math.pi)) > 0.1
     with pytest.raises(ValueError, match="radius"):
         DriftOrbit((0.0, 0.0), 0.0)
+
+
+def test_orbit_entry_turn_ends_after_three_quarters_of_a_turn_inside_the_circle() -> None:
+    """A turn that stays inside the circle would loop through the point and out the other side."""
+    orbit = DriftOrbit((0.0, 0.0), 2.0, clockwise=True)
+    heading = 0.0
+    out = orbit.update((0.0, 0.0), (0.0, 0.0), 0.01, heading_rad=heading)
+    for _ in range(30):  # 300 deg in 10 deg steps, staying 0.6 m from the point
+        heading += math.radians(10.0)
+        pos = (0.6 * math.cos(heading - math.pi / 2), 0.6 * math.sin(heading - math.pi / 2))
+        out = orbit.update(pos, (0.0, 0.0), 0.01, heading_rad=heading)
+    assert abs(math.remainder(out.heading_rad - (heading + math.pi / 2), 2 * math.pi)) > 0.1
+
+
+def test_orbit_entry_turn_goes_on_past_the_circle_until_the_bow_joins_and_not_from_outside() -> None:
+    orbit = DriftOrbit((0.0, 0.0), 2.0, clockwise=True)
+    orbit.update((0.0, 0.0), (0.0, 0.0), 0.01, heading_rad=0.0)
+    # 3 m north of the point still heading north (fast entry): keep turning to starboard
+    out = orbit.update((3.0, 0.0), (0.0, 0.0), 0.01, heading_rad=0.1)
+    assert math.remainder(out.heading_rad - 0.1, 2 * math.pi) == pytest.approx(math.pi / 2)
+    # a GUIDED hand-over 3 m out: the field at once (toward the circle, not a lead on the bow)
+    outside = DriftOrbit((0.0, 0.0), 2.0, clockwise=True)
+    out = outside.update((3.0, 0.0), (0.0, 0.0), 0.01, heading_rad=0.1)
+    assert math.remainder(out.heading_rad - 0.1, 2 * math.pi) != pytest.approx(math.pi / 2)
+    assert math.cos(out.heading_rad - math.pi) > 0.0  # southward, back toward the circle
+
+
+@pytest.mark.parametrize(("heading_deg", "current", "clockwise"), [
+    (90.0, (-0.5, 0.0), False),  # heading east, current toward south: turn left, centre upstream (north)
+    (90.0, (0.5, 0.0), True),    # current toward north: turn right, centre south (upstream)
+    (0.0, (0.0, -0.4), True),    # heading north, current toward west: upstream is east, to starboard
+])
+def test_orbit_direction_puts_the_entry_turn_upstream_in_a_current(
+        heading_deg: float, current: tuple[float, float], clockwise: bool) -> None:
+    assert orbit_clockwise(math.radians(heading_deg), -0.3, current) is clockwise
+
+
+def test_orbit_direction_in_slack_water_is_the_way_the_boat_already_turns() -> None:
+    assert orbit_clockwise(1.0, 0.2, (0.05, 0.0)) is True
+    assert orbit_clockwise(1.0, -0.2, (0.05, 0.0)) is False
