@@ -11,6 +11,7 @@ anchored where the task starts (:mod:`companion.guidance.geo`).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import replace
 from typing import Protocol
 
@@ -67,6 +68,21 @@ def crabbed(target: ControlTarget, nav: NavState, drift: CurrentObserver | None)
     c = drift.current_ne_mps
     u_w = max(water_speed_mps(nav.vel_north_mps, nav.vel_east_mps, c), 1.0)
     return replace(target, course_rad=crab_heading(target.course_rad, u_w, c), is_heading=True)
+
+
+CURRENT_MIN_CONFIDENCE = 0.5
+"""The estimator's current counts for the circle-or-hold choice from this confidence (as LOITER's
+:func:`companion.guidance.holding.pick_strategy`)."""
+
+
+def estimator_current(host: ModeHost) -> Callable[[], tuple[float, float] | None]:
+    """The host's fresh water-current estimate (north, east m/s) when it is confident, else ``None``."""
+    def latest() -> tuple[float, float] | None:
+        est = host.water_current
+        if est is None or est.confidence < CURRENT_MIN_CONFIDENCE:
+            return None
+        return (est.north_mps, est.east_mps)
+    return latest
 
 
 class GotoTask:
@@ -148,10 +164,15 @@ class CircleTask:
 
     def __init__(self, params: ParamStore, point: tuple[float, float], radius_m: float,
                  clockwise: bool = True, approach_speed_mps: float = 3.0,
-                 drift: CurrentObserver | None = None) -> None:
+                 drift: CurrentObserver | None = None,
+                 water_current: Callable[[], tuple[float, float] | None] | None = None) -> None:
+        """``water_current``: the estimator's confident water current (north, east m/s) or
+        ``None``, used to choose between circling and holding on the circle while ``drift`` has
+        not yet seen the boat steer in two directions (the first item after a straight leg)."""
         self.frame = LocalFrame(*point)
         self.params = params
         self.drift = drift
+        self.water_current = water_current
         self.point = point
         self.radius_m = max(radius_m, params.get("USV_TURN_RAD"))
         self.tracker = CircleTracker((0.0, 0.0), self.radius_m, clockwise, circle_gains(params))
@@ -160,6 +181,9 @@ class CircleTask:
         self.on_circle_since_s: float | None = None
         self.stem: StemHold | None = None
         """Set when the current is too strong to circle in: the boat holds on the circle."""
+        self.circling = False
+        """Set once the boat is on the circle circling: the choice is not revisited (a hold picked
+        in the middle of a lap swept the boat 9 m off the circle)."""
         self.turns = 0.0
         self._last_bearing: float | None = None
         self.distance_m = math.inf
@@ -177,14 +201,22 @@ class CircleTask:
             if self._last_bearing is not None:
                 self.turns += abs(wrap_pi(bearing - self._last_bearing)) / (2 * math.pi)
             self._last_bearing = bearing
-        if self.stem is None:
-            self.stem = StemHold.when_needed(self.params, self.drift, self.radius_m, pos, nav.heading_rad)
+        if self.stem is None and not self.circling:
+            self.stem = StemHold.when_needed(self.params, self._current(), self.radius_m, pos,
+                                             nav.heading_rad)
+            self.circling = self.stem is None and self.on_circle_since_s is not None
         if self.stem is not None:
             return self.stem.step(pos, nav, dt_s)
         far = out.distance_m > self.radius_m + 10.0
         speed = self.approach_speed_mps if far else self.circle_speed_mps
         target = ControlTarget(out.course_rad, speed, out.course_rate_radps)
         return crabbed(target, nav, crab_feed_forward(self.params, self.drift))
+
+    def _current(self) -> tuple[float, float] | None:
+        """The observer's current once it has converged, else the estimator's, else ``None``."""
+        if self.drift is not None and self.drift.converged:
+            return self.drift.current_ne_mps
+        return self.water_current() if self.water_current is not None else None
 
     def time_on_circle_s(self, now_s: float) -> float:
         return 0.0 if self.on_circle_since_s is None else now_s - self.on_circle_since_s
@@ -216,15 +248,14 @@ class StemHold:
         self._turn_sign = 0.0
 
     @classmethod
-    def when_needed(cls, params: ParamStore, drift: CurrentObserver | None, radius_m: float,
+    def when_needed(cls, params: ParamStore, current_ne_mps: tuple[float, float] | None, radius_m: float,
                     pos_ne: tuple[float, float], heading_rad: float) -> StemHold | None:
-        """A hold when the observed current is at least ``USV_CIRC_HOLD_C``, else ``None`` (circle)."""
+        """A hold when the current (north, east m/s; ``None``: unknown) is at least
+        ``USV_CIRC_HOLD_C``, else ``None`` (circle)."""
         limit = params.get_or("USV_CIRC_HOLD_C", 0.0)
-        if drift is None or limit <= 0.0 or not drift.converged:
+        if current_ne_mps is None or limit <= 0.0 or math.hypot(*current_ne_mps) < limit:
             return None
-        if math.hypot(*drift.current_ne_mps) < limit:
-            return None
-        return cls(params, radius_m, drift.current_ne_mps, pos_ne, heading_rad)
+        return cls(params, radius_m, current_ne_mps, pos_ne, heading_rad)
 
     def _set_leg(self, pos_ne: tuple[float, float]) -> None:
         start = pos_ne if self._leg == 0 else self.route[self._leg - 1]

@@ -95,6 +95,43 @@ def test_circle_item_holds_on_the_circle_only_in_a_current_it_cannot_circle_in(c
     assert again.stem is None
 
 
+def test_circle_item_picks_the_hold_from_the_estimator_before_the_observer_has_converged() -> None:
+    """After one straight leg the observer knows only the current across it: the estimator's
+    (confident) current decides, so the first sampling point in a strong current is held too."""
+    params = ParamStore(all_param_defs())
+    obs = CurrentObserver()
+    _run(obs, 0.0, 3.0, (0.0, 1.2), 30.0)
+    assert not obs.converged
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    blind = CircleTask(params, point, 2.0, drift=obs)
+    blind.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    assert blind.stem is None
+    task = CircleTask(params, point, 2.0, drift=obs, water_current=lambda: (0.0, 1.2))
+    task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    assert task.stem is not None and task.stem.hold_ne[0] == pytest.approx(-2.0, abs=0.05)
+
+
+def test_circle_item_keeps_circling_once_on_the_circle_when_the_estimate_arrives_late() -> None:
+    """A hold picked in the middle of a lap swept the boat 9 m off the circle: the choice is made
+    before the boat reaches the circle and not revisited."""
+    params = ParamStore(all_param_defs())
+    current: list[tuple[float, float] | None] = [None]
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    task = CircleTask(params, point, 2.0, water_current=lambda: current[0])
+    task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    current[0] = (0.0, 1.2)  # known before the circle: still chosen
+    task.step(_nav(frame, -11.0, -3.0, 2.0, 0.0), 0.1)
+    assert task.stem is not None
+    late = CircleTask(params, point, 2.0, water_current=lambda: current[0])
+    current[0] = None
+    late.step(_nav(frame, -2.1, 0.0, 0.0, 1.6), 0.1)  # on the circle, no estimate yet
+    current[0] = (0.0, 1.2)
+    late.step(_nav(frame, -2.0, 0.2, 0.0, 1.6), 0.1)
+    assert late.stem is None and late.circling
+
+
 @pytest.mark.parametrize(("heading_deg", "inside", "sign"), [(180.0, 1.0, -1.0), (180.0, -1.0, 1.0),
                                                              (170.0, 1.0, -1.0), (190.0, -1.0, 1.0)])
 def test_u_turn_onto_a_leg_turns_toward_the_inside_of_the_route(heading_deg: float, inside: float,
