@@ -132,6 +132,50 @@ def test_circle_item_keeps_circling_once_on_the_circle_when_the_estimate_arrives
     assert late.stem is None and late.circling
 
 
+def test_observer_agrees_only_on_the_axes_it_has_seen() -> None:
+    obs = CurrentObserver()
+    _run(obs, 0.0, 3.0, (0.0, 0.5), 30.0)  # heading north: the east component is known
+    assert obs.agrees((0.4, 0.45), 0.15)  # north not yet seen: anything goes there
+    assert not obs.agrees((0.0, 0.2), 0.15)  # east off by 0.3 m/s
+
+
+def test_stem_route_below_creep_turns_the_hold_point_downstream_on_the_circle() -> None:
+    centre, current = (0.0, 0.0), (0.0, 0.5)  # flowing east
+    abeam, hold = stem_route(centre, 2.0, current, (-12.0, -3.0), abeam_m=8.0,
+                             downstream_rad=math.radians(30.0))
+    assert math.hypot(*hold) == pytest.approx(2.0)
+    assert hold == pytest.approx((-2.0 * math.cos(math.radians(30.0)), 1.0))  # south side, 1 m downstream
+    assert abeam == pytest.approx((-10.0, 0.0))
+    # creeping 2 m upstream from the hold point keeps within 0.3 m of the circle (a chord)
+    for k in range(21):
+        assert abs(math.hypot(hold[0], hold[1] - 0.1 * k) - 2.0) <= 0.3
+
+
+def _creep_params(limit_mps: float) -> ParamStore:
+    params = ParamStore(all_param_defs())
+    params.set("USV_CIRC_HOLD_C", limit_mps)
+    return params
+
+
+def test_circle_item_below_the_idle_creep_holds_only_when_enabled_and_circles_when_the_hold_is_lost() -> None:
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    default = CircleTask(ParamStore(all_param_defs()), point, 2.0, water_current=lambda: (0.0, 0.5))
+    default.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    assert default.stem is None  # 0.5 m/s is below the default USV_CIRC_HOLD_C: circles
+    task = CircleTask(_creep_params(0.4), point, 2.0, water_current=lambda: (0.0, 0.5))
+    task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    stem = task.stem
+    assert stem is not None and stem.below_creep
+    assert stem.hold_ne == pytest.approx((-1.73, 1.0), abs=0.01)
+    stem.holding = True  # as if the leg to the abeam point were done
+    task.step(_nav(frame, *stem.hold_ne, 0.0, -0.2), 0.1)
+    assert stem.on_hold and not stem.lost
+    target = task.step(_nav(frame, stem.hold_ne[0], stem.hold_ne[1] - 5.0, 0.0, -0.2), 0.1)  # crept 5 m
+    assert task.stem is None and task.circling  # given up: circling the point
+    assert not target.hold_station
+
+
 @pytest.mark.parametrize(("heading_deg", "inside", "sign"), [(180.0, 1.0, -1.0), (180.0, -1.0, 1.0),
                                                              (170.0, 1.0, -1.0), (190.0, -1.0, 1.0)])
 def test_u_turn_onto_a_leg_turns_toward_the_inside_of_the_route(heading_deg: float, inside: float,
