@@ -32,6 +32,10 @@ came in at speed and ran through the hold point and the circle)."""
 CREEP_HOLD_DOWNSTREAM_RAD = math.radians(30.0)
 """Below the idle creep the hold point is this far round the circle downstream of the line
 across the current (the creep upstream then runs along a chord of the circle)."""
+CREEP_HANDOVER_M = 5.0
+"""Below the idle creep a boat coming from farther downstream than this hands over from the leg to
+the keeper this far from the abeam point (arriving there heading upstream at the leg speed it ran
+on 5-7 m upstream and came back across the hold point diagonally)."""
 CREEP_ON_HOLD_M = 1.0
 CREEP_LOST_M = 4.0
 """Below the idle creep a hold that has reached its point (within CREEP_ON_HOLD_M) and then crept
@@ -55,9 +59,15 @@ class StemHold:
         *self.route, self.hold_ne = stem_route(
             (0.0, 0.0), radius_m, current_ne_mps, pos_ne,
             *((CREEP_ABEAM_M, CREEP_HOLD_DOWNSTREAM_RAD) if self.below_creep else ()))
+        abeam = self.route[0]
+        speed_c = math.hypot(*current_ne_mps)
+        downstream_m = ((pos_ne[0] - abeam[0]) * current_ne_mps[0]
+                        + (pos_ne[1] - abeam[1]) * current_ne_mps[1]) / max(speed_c, 1e-6)
+        from_downstream = downstream_m > CREEP_HANDOVER_M
+        accept_m = CREEP_HANDOVER_M if self.below_creep and from_downstream else 1.0
         self.legs = LegNavigator(LosFollower(los_gains(params), LosType(int(params.get("USV_LOS_TYPE")))),
                                  leg_config(params, params.get("USV_CIRC_SPD") + math.hypot(*current_ne_mps),
-                                            1.0))
+                                            accept_m))
         self._leg = 0
         self._set_leg(pos_ne)
         self.current_ne_mps = current_ne_mps
