@@ -234,11 +234,15 @@ class CircleTask:
         else the estimator's if it agrees within :data:`ESTIMATE_AGREE_MPS` with what the observer
         has seen (10 s after arming the estimator read 128 deg for a current toward 90), else
         ``None``.  The strength: the stronger of the two (the observer's, time constant 6 s, read
-        0.3-0.4 m/s at times in 0.5 m/s)."""
+        0.3-0.4 m/s at times in 0.5 m/s).  The estimator counts only below the idle creep
+        (``USV_HOLD_CREEP``): the hold that stems a stronger current is chosen on the observer alone,
+        as before (in 0.8 m/s against 5 m/s of wind the estimator's 0.8 m/s, which has no leeway,
+        picked it at the first point and the boat never got onto the circle in 900 s)."""
         observed = self.drift.current_ne_mps if self.drift is not None and self.drift.converged else None
         estimated = self.water_current() if self.water_current is not None else None
-        if estimated is not None and self.drift is not None and not self.drift.agrees(
-                estimated, ESTIMATE_AGREE_MPS):
+        if estimated is not None and (
+                math.hypot(*estimated) >= self.params.get_or("USV_HOLD_CREEP", 0.0)
+                or (self.drift is not None and not self.drift.agrees(estimated, ESTIMATE_AGREE_MPS))):
             estimated = None
         strength = max((math.hypot(*c) for c in (observed, estimated) if c is not None), default=0.0)
         return (observed or estimated), strength

@@ -97,37 +97,47 @@ def test_circle_item_holds_on_the_circle_only_in_a_current_it_cannot_circle_in(c
 
 def test_circle_item_picks_the_hold_from_the_estimator_before_the_observer_has_converged() -> None:
     """After one straight leg the observer knows only the current across it: the estimator's
-    (confident) current decides, so the first sampling point in a strong current is held too."""
+    (confident, agreeing) current below the idle creep decides, so the first sampling point is held
+    too (USV_CIRC_HOLD_C below the creep); a stronger estimate is left to the observer, as before."""
     params = ParamStore(all_param_defs())
+    params.set("USV_CIRC_HOLD_C", 0.4)
     obs = CurrentObserver()
-    _run(obs, 0.0, 3.0, (0.0, 1.2), 30.0)
+    _run(obs, 0.0, 3.0, (0.0, 0.5), 30.0)
     assert not obs.converged
     point = (41.77, 123.43)
     frame = LocalFrame(*point)
     blind = CircleTask(params, point, 2.0, drift=obs)
     blind.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
     assert blind.stem is None
-    task = CircleTask(params, point, 2.0, drift=obs, water_current=lambda: (0.0, 1.2))
+    task = CircleTask(params, point, 2.0, drift=obs, water_current=lambda: (0.0, 0.5))
     task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
-    assert task.stem is not None and task.stem.hold_ne[0] == pytest.approx(-2.0, abs=0.05)
+    assert task.stem is not None and task.stem.hold_ne[0] == pytest.approx(-1.73, abs=0.05)
+    disagrees = CircleTask(params, point, 2.0, drift=obs, water_current=lambda: (0.0, 0.1))
+    disagrees.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    assert disagrees.stem is None
+    strong = CircleTask(ParamStore(all_param_defs()), point, 2.0, drift=CurrentObserver(),
+                        water_current=lambda: (0.0, 1.2))
+    strong.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    assert strong.stem is None
 
 
 def test_circle_item_keeps_circling_once_on_the_circle_when_the_estimate_arrives_late() -> None:
     """A hold picked in the middle of a lap swept the boat 9 m off the circle: the choice is made
     before the boat reaches the circle and not revisited."""
     params = ParamStore(all_param_defs())
+    params.set("USV_CIRC_HOLD_C", 0.4)
     current: list[tuple[float, float] | None] = [None]
     point = (41.77, 123.43)
     frame = LocalFrame(*point)
     task = CircleTask(params, point, 2.0, water_current=lambda: current[0])
     task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
-    current[0] = (0.0, 1.2)  # known before the circle: still chosen
+    current[0] = (0.0, 0.5)  # known before the circle: still chosen
     task.step(_nav(frame, -11.0, -3.0, 2.0, 0.0), 0.1)
     assert task.stem is not None
     late = CircleTask(params, point, 2.0, water_current=lambda: current[0])
     current[0] = None
     late.step(_nav(frame, -2.1, 0.0, 0.0, 1.6), 0.1)  # on the circle, no estimate yet
-    current[0] = (0.0, 1.2)
+    current[0] = (0.0, 0.5)
     late.step(_nav(frame, -2.0, 0.2, 0.0, 1.6), 0.1)
     assert late.stem is None and late.circling
 
