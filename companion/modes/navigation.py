@@ -190,6 +190,8 @@ class CircleTask:
         """Set once the boat circles (closer than :data:`DECIDE_OUTSIDE_M` outside the circle with no
         hold picked): the choice is not revisited (a hold picked in the middle of a lap swept the boat
         9 m off the circle; one picked 3 m out ran its route through the circle)."""
+        self._hold_retried = False
+        """A hold lost before the boat came near the circle is flown once more from where it is."""
         self.turns = 0.0
         self._last_bearing: float | None = None
         self.distance_m = math.inf
@@ -219,9 +221,16 @@ class CircleTask:
             target = self.stem.step(pos, nav, dt_s)
             if not self.stem.lost:
                 return target
-            log.warning("circle item: the hold crept %.1f m off its point on the circle (%s); circling",
+            retry = self.on_circle_since_s is None and not self._hold_retried
+            log.warning("circle item: the hold crept %.1f m off its point on the circle (%s); %s",
                         math.dist(pos, self.stem.hold_ne),
-                        "after reaching it" if self.stem.on_hold else "never there")
+                        "after reaching it" if self.stem.on_hold else "never there",
+                        "again from here" if retry else "circling")
+            if retry:  # not yet near the circle: a second approach costs no tracking error
+                self._hold_retried = True
+                self.stem = StemHold(self.params, self.radius_m, self.stem.current_ne_mps, pos,
+                                     nav.heading_rad)
+                return self.stem.step(pos, nav, dt_s)
             self.stem, self.circling = None, True
         far = out.distance_m > self.radius_m + 10.0
         speed = self.approach_speed_mps if far else self.circle_speed_mps
