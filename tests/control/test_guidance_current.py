@@ -73,7 +73,7 @@ def _nav(frame: LocalFrame, n: float, e: float, vn: float, ve: float) -> NavStat
                     r_radps=0.0)
 
 
-@pytest.mark.parametrize(("current_mps", "holds"), [(1.2, True), (0.4, False)])
+@pytest.mark.parametrize(("current_mps", "holds"), [(1.2, True), (0.3, False)])
 def test_circle_item_holds_on_the_circle_only_in_a_current_it_cannot_circle_in(current_mps: float,
                                                                               holds: bool) -> None:
     params = ParamStore(all_param_defs())
@@ -172,7 +172,7 @@ def test_circle_item_below_the_idle_creep_holds_only_when_enabled_and_circles_wh
     frame = LocalFrame(*point)
     default = CircleTask(ParamStore(all_param_defs()), point, 2.0, water_current=lambda: (0.0, 0.5))
     default.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
-    assert default.stem is None  # 0.5 m/s is below the default USV_CIRC_HOLD_C: circles
+    assert default.stem is None  # 0.5 m/s is below the default USV_CIRC_HOLD_C (0.7): circles
     task = CircleTask(_creep_params(0.4), point, 2.0, water_current=lambda: (0.0, 0.5))
     task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
     stem = task.stem
@@ -182,8 +182,15 @@ def test_circle_item_below_the_idle_creep_holds_only_when_enabled_and_circles_wh
     task.step(_nav(frame, *stem.hold_ne, 0.0, -0.2), 0.1)
     assert stem.on_hold and not stem.lost
     target = task.step(_nav(frame, stem.hold_ne[0], stem.hold_ne[1] - 5.0, 0.0, -0.2), 0.1)  # crept 5 m
-    assert task.stem is None and task.circling  # given up: circling the point
+    assert task.stem is None and task.circling  # given up near the circle: circling the point
     assert not target.hold_station
+    far = CircleTask(_creep_params(0.4), point, 2.0, water_current=lambda: (0.0, 0.5))
+    far.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    first = far.stem
+    assert first is not None
+    first.holding = True
+    far.step(_nav(frame, -12.0, -25.0, 0.0, -0.2), 0.1)  # 20+ m upstream, never near the circle
+    assert far.stem is not None and far.stem is not first and not far.circling  # flown once more
 
 
 @pytest.mark.parametrize(("heading_deg", "inside", "sign"), [(180.0, 1.0, -1.0), (180.0, -1.0, 1.0),
