@@ -70,6 +70,15 @@ class CurrentObserver:
         """Both directions have been observed for at least one time constant."""
         return min(self._seen_n, self._seen_e) >= self.gains.tau_s
 
+    def agrees(self, current_ne_mps: tuple[float, float], tolerance_mps: float) -> bool:
+        """Whether ``current_ne_mps`` is within ``tolerance_mps`` of the estimate on the north and
+        the east axis, each checked once it has been observed for one time constant (after one
+        straight leg only the component across it is known)."""
+        g = self.gains
+        if self._seen_n >= g.tau_s and abs(current_ne_mps[0] - self.north_mps) > tolerance_mps:
+            return False
+        return not (self._seen_e >= g.tau_s and abs(current_ne_mps[1] - self.east_mps) > tolerance_mps)
+
     def update(self, vel_north_mps: float, vel_east_mps: float, heading_rad: float, r_radps: float,
                dt_s: float) -> None:
         g = self.gains

@@ -52,7 +52,9 @@ PARAMS: tuple[ParamDef, ...] = (
     ParamDef("USV_CIRC_HOLD_C", 0.7, 0.0, 5.0, "m/s",
              "Circle items (sampling, LOITER_TURNS) in a current at least this strong (observed) keep "
              "station on the circle, bow into the current, instead of circling (companion/guidance/stem.py). "
-             "0: always circle."),
+             "Below USV_HOLD_CREEP (e.g. 0.4: opt-in) the hold point is 30 deg downstream of the line across "
+             "the current and the boat creeps upstream along a chord (README: better in the tests' 0.5 m/s "
+             "flood, worse on a usv bench nav cell). 0: always circle."),
     ParamDef("USV_CIRC_SPD", 1.6, 0.5, 10.0, "m/s", "Point tracking: speed while circling a point."),
     ParamDef("USV_TURN_RAD", 2.0, 0.5, 50.0, "m",
              "Smallest circle the boat holds under control (default and minimum radius of point tracking). "

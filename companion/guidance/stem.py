@@ -19,6 +19,17 @@ side (never across the circle's inside), and from there the station keeper
 (:class:`companion.guidance.holding.CurrentStationKeeper`) ferries it across the current onto the
 hold point, bow within 70 deg of up-current, with ``c`` as its feed-forward (no exploratory loop
 while an integral learns it).
+
+A current weaker than the jet's idle creep ``U_0`` cannot be stemmed on a point: bow into it the
+boat creeps upstream at ``U_0 - |c|`` (0.2 m/s in 0.5 m/s).  There the hold point is turned
+``downstream_rad`` along the circle, downstream of the line across the current, so that the
+creep runs along a chord of the circle instead of off it::
+
+    hold = centre + R (cos a p_hat + sin a c_hat)
+
+creeping ``s`` upstream from it the distance from the centre is ``sqrt((R sin a - s)^2 + R^2 cos^2 a)``:
+with ``a`` = 30 deg and R = 2 m it stays within 0.3 m of R for the first 2 m (10 s at 0.2 m/s,
+longer than a sample's pumping).
 """
 
 from __future__ import annotations
@@ -32,8 +43,10 @@ ABEAM_M = 5.0
 
 
 def stem_route(centre_ne: Point, radius_m: float, current_ne_mps: tuple[float, float],
-               pos_ne: Point) -> list[Point]:
-    """[abeam, hold] (north-east metres) for a boat at ``pos_ne``."""
+               pos_ne: Point, abeam_m: float = ABEAM_M, downstream_rad: float = 0.0) -> list[Point]:
+    """[abeam, hold] (north-east metres) for a boat at ``pos_ne``: the abeam point ``abeam_m``
+    outside the circle across the current, the hold point turned ``downstream_rad`` from the
+    line across the current toward downstream."""
     speed = math.hypot(*current_ne_mps)
     if speed <= 0.0:
         raise ValueError("stem_route needs a current")
@@ -41,6 +54,7 @@ def stem_route(centre_ne: Point, radius_m: float, current_ne_mps: tuple[float, f
     rel_n, rel_e = pos_ne[0] - centre_ne[0], pos_ne[1] - centre_ne[1]
     side = 1.0 if (-ce * rel_n + cn * rel_e) <= 0.0 else -1.0  # which side of the current line
     pn, pe = side * ce, -side * cn  # unit vector across the current, toward the boat's side
-    hold = (centre_ne[0] + radius_m * pn, centre_ne[1] + radius_m * pe)
-    abeam = (centre_ne[0] + (radius_m + ABEAM_M) * pn, centre_ne[1] + (radius_m + ABEAM_M) * pe)
+    ca, sa = math.cos(downstream_rad), math.sin(downstream_rad)
+    hold = (centre_ne[0] + radius_m * (ca * pn + sa * cn), centre_ne[1] + radius_m * (ca * pe + sa * ce))
+    abeam = (centre_ne[0] + (radius_m + abeam_m) * pn, centre_ne[1] + (radius_m + abeam_m) * pe)
     return [abeam, hold]

@@ -31,7 +31,14 @@ from companion.mission import items as mi
 from companion.mission.items import MissionItem
 from companion.mission.validate import ItemCheck
 from companion.modes.host import ModeHost
-from companion.modes.navigation import CircleTask, GotoTask, StationTask, Task, wp_speed_mps
+from companion.modes.navigation import (
+    CircleTask,
+    GotoTask,
+    StationTask,
+    Task,
+    estimator_current,
+    wp_speed_mps,
+)
 
 LEG_RESTART_M = 50.0
 """Knocked farther than this off the old leg's end, the next leg starts where the boat is."""
@@ -211,7 +218,8 @@ class LoiterItem(NavItem):
     def arrive(self, nav: NavState) -> bool:
         params, p3 = self.run.host.params, self.item.param3
         if abs(p3) > 0:
-            self.run.task = CircleTask(params, self.point, abs(p3), clockwise=p3 > 0, drift=self.run.drift)
+            self.run.task = CircleTask(params, self.point, abs(p3), clockwise=p3 > 0, drift=self.run.drift,
+                                       water_current=estimator_current(self.run.host))
         else:
             self.run.task = StationTask(params, self.point, nav.heading_rad)
         self.run.phase = Phase.LOITER

@@ -10,7 +10,9 @@ anchored where the task starts (:mod:`companion.guidance.geo`).
 
 from __future__ import annotations
 
+import logging
 import math
+from collections.abc import Callable
 from dataclasses import replace
 from typing import Protocol
 
@@ -19,17 +21,17 @@ from companion.control.target import ControlRequest, ControlTarget
 from companion.guidance.circle import CircleTracker
 from companion.guidance.current import CurrentObserver, crab_heading, water_speed_mps
 from companion.guidance.geo import LocalFrame, distance_bearing, wrap_2pi, wrap_pi
-from companion.guidance.hold_params import current_station_gains
-from companion.guidance.holding import CurrentStationKeeper
 from companion.guidance.los import LosFollower, LosType
 from companion.guidance.params import circle_gains, leg_config, los_gains, station_gains
 from companion.guidance.station import StationKeeper
-from companion.guidance.stem import stem_route
 from companion.guidance.waypoints import U_TURN_DONE_RAD, U_TURN_RAD, LegNavigator, u_turn_sign
 from companion.messages import NavState
-from companion.modes.base import Mode, NavTarget, requires_position
+from companion.modes.base import Mode, NavTarget, course_over_ground, requires_position
 from companion.modes.host import ModeHost
+from companion.modes.stem_hold import StemHold
 from companion.params import ParamStore
+
+log = logging.getLogger(__name__)
 
 FALLBACK_VALUES = {"WP_SPEED": 5.0, "CRUISE_SPEED": 5.0, "WP_RADIUS": 2.0, "LOIT_RADIUS": 2.0,
                    "MIS_DONE_BEHAVE": 0.0}
@@ -45,10 +47,6 @@ def wp_speed_mps(params: ParamStore, override: float | None = None) -> float:
         return override
     speed = param(params, "WP_SPEED")
     return speed if speed > 0 else param(params, "CRUISE_SPEED")
-
-
-def course_over_ground(nav: NavState) -> float:
-    return math.atan2(nav.vel_east_mps, nav.vel_north_mps)
 
 
 def crab_feed_forward(params: ParamStore, drift: CurrentObserver | None) -> CurrentObserver | None:
@@ -67,6 +65,21 @@ def crabbed(target: ControlTarget, nav: NavState, drift: CurrentObserver | None)
     c = drift.current_ne_mps
     u_w = max(water_speed_mps(nav.vel_north_mps, nav.vel_east_mps, c), 1.0)
     return replace(target, course_rad=crab_heading(target.course_rad, u_w, c), is_heading=True)
+
+
+CURRENT_MIN_CONFIDENCE = 0.5
+"""The estimator's current counts for the circle-or-hold choice from this confidence (as LOITER's
+:func:`companion.guidance.holding.pick_strategy`)."""
+
+
+def estimator_current(host: ModeHost) -> Callable[[], tuple[float, float] | None]:
+    """The host's fresh water-current estimate (north, east m/s) when it is confident, else ``None``."""
+    def latest() -> tuple[float, float] | None:
+        est = host.water_current
+        if est is None or est.confidence < CURRENT_MIN_CONFIDENCE:
+            return None
+        return (est.north_mps, est.east_mps)
+    return latest
 
 
 class GotoTask:
@@ -143,15 +156,28 @@ class StationTask:
         return ControlTarget(out.heading_rad, out.surge_speed_mps, is_heading=True, hold_station=True)
 
 
+ESTIMATE_AGREE_MPS = 0.15
+"""The estimator's current counts for the choice when it is within this of the observer's on every
+axis the observer has seen (:meth:`~companion.guidance.current.CurrentObserver.agrees`)."""
+DECIDE_OUTSIDE_M = 8.0
+"""A circle item chooses between circling and holding on the circle until the boat is this close
+to the circle (the hold's route starts with a point up to this far out)."""
+
+
 class CircleTask:
     """Approach ``point`` and circle it at ``radius_m``; counts turns and time on the circle."""
 
     def __init__(self, params: ParamStore, point: tuple[float, float], radius_m: float,
                  clockwise: bool = True, approach_speed_mps: float = 3.0,
-                 drift: CurrentObserver | None = None) -> None:
+                 drift: CurrentObserver | None = None,
+                 water_current: Callable[[], tuple[float, float] | None] | None = None) -> None:
+        """``water_current``: the estimator's confident water current (north, east m/s) or
+        ``None``, used to choose between circling and holding on the circle while ``drift`` has
+        not yet seen the boat steer in two directions (the first item after a straight leg)."""
         self.frame = LocalFrame(*point)
         self.params = params
         self.drift = drift
+        self.water_current = water_current
         self.point = point
         self.radius_m = max(radius_m, params.get("USV_TURN_RAD"))
         self.tracker = CircleTracker((0.0, 0.0), self.radius_m, clockwise, circle_gains(params))
@@ -160,6 +186,12 @@ class CircleTask:
         self.on_circle_since_s: float | None = None
         self.stem: StemHold | None = None
         """Set when the current is too strong to circle in: the boat holds on the circle."""
+        self.circling = False
+        """Set once the boat circles (closer than :data:`DECIDE_OUTSIDE_M` outside the circle with no
+        hold picked): the choice is not revisited (a hold picked in the middle of a lap swept the boat
+        9 m off the circle; one picked 3 m out ran its route through the circle)."""
+        self._hold_retried = False
+        """A hold lost before the boat came near the circle is flown once more from where it is."""
         self.turns = 0.0
         self._last_bearing: float | None = None
         self.distance_m = math.inf
@@ -177,85 +209,55 @@ class CircleTask:
             if self._last_bearing is not None:
                 self.turns += abs(wrap_pi(bearing - self._last_bearing)) / (2 * math.pi)
             self._last_bearing = bearing
-        if self.stem is None:
-            self.stem = StemHold.when_needed(self.params, self.drift, self.radius_m, pos, nav.heading_rad)
+        if self.stem is None and not self.circling:
+            current, strength_mps = self._current()
+            self.stem = StemHold.when_needed(self.params, current, self.radius_m, pos, nav.heading_rad,
+                                             strength_mps)
+            self.circling = self.stem is None and out.distance_m < self.radius_m + DECIDE_OUTSIDE_M
+            if self.stem is not None:
+                log.info("circle item: holding on the circle in a %.2f m/s current (%.1f m out)",
+                         math.hypot(*self.stem.current_ne_mps), out.distance_m)
         if self.stem is not None:
-            return self.stem.step(pos, nav, dt_s)
+            target = self.stem.step(pos, nav, dt_s)
+            if not self.stem.lost:
+                return target
+            retry = self.on_circle_since_s is None and not self._hold_retried
+            log.warning("circle item: the hold crept %.1f m off its point on the circle (%s); %s",
+                        math.dist(pos, self.stem.hold_ne),
+                        "after reaching it" if self.stem.on_hold else "never there",
+                        "again from here" if retry else "circling")
+            if retry:  # not yet near the circle: a second approach costs no tracking error
+                self._hold_retried = True
+                self.stem = StemHold(self.params, self.radius_m, self.stem.current_ne_mps, pos,
+                                     nav.heading_rad)
+                return self.stem.step(pos, nav, dt_s)
+            self.stem, self.circling = None, True
         far = out.distance_m > self.radius_m + 10.0
         speed = self.approach_speed_mps if far else self.circle_speed_mps
         target = ControlTarget(out.course_rad, speed, out.course_rate_radps)
         return crabbed(target, nav, crab_feed_forward(self.params, self.drift))
 
+    def _current(self) -> tuple[tuple[float, float] | None, float]:
+        """The current the hold would be flown on and the strength the circle-or-hold choice is
+        made on.  The current: the observer's once it has converged (it includes the wind's leeway),
+        else the estimator's if it agrees within :data:`ESTIMATE_AGREE_MPS` with what the observer
+        has seen (10 s after arming the estimator read 128 deg for a current toward 90), else
+        ``None``.  The strength: the stronger of the two (the observer's, time constant 6 s, read
+        0.3-0.4 m/s at times in 0.5 m/s).  The estimator counts only below the idle creep
+        (``USV_HOLD_CREEP``): the hold that stems a stronger current is chosen on the observer alone,
+        as before (in 0.8 m/s against 5 m/s of wind the estimator's 0.8 m/s, which has no leeway,
+        picked it at the first point and the boat never got onto the circle in 900 s)."""
+        observed = self.drift.current_ne_mps if self.drift is not None and self.drift.converged else None
+        estimated = self.water_current() if self.water_current is not None else None
+        if estimated is not None and (
+                math.hypot(*estimated) >= self.params.get_or("USV_HOLD_CREEP", 0.0)
+                or (self.drift is not None and not self.drift.agrees(estimated, ESTIMATE_AGREE_MPS))):
+            estimated = None
+        strength = max((math.hypot(*c) for c in (observed, estimated) if c is not None), default=0.0)
+        return (observed or estimated), strength
+
     def time_on_circle_s(self, now_s: float) -> float:
         return 0.0 if self.on_circle_since_s is None else now_s - self.on_circle_since_s
-
-
-STEM_POWERED_TURN_RAD = math.radians(60.0)
-"""On the circle the hold turns at the corner speed while the bow is farther than this off the
-heading the station keeper wants: at idle the turn is slow and a strong current sweeps the boat
-tens of metres downstream before the bow is into it (measured: 45 m in 1.2 m/s)."""
-
-
-class StemHold:
-    """Keep station on the circle, bow into the current (:mod:`companion.guidance.stem`): a leg to
-    the abeam point, then the current-fed station keeper
-    (:class:`~companion.guidance.holding.CurrentStationKeeper`, the observed current as its
-    feed-forward) onto the hold point."""
-
-    def __init__(self, params: ParamStore, radius_m: float, current_ne_mps: tuple[float, float],
-                 pos_ne: tuple[float, float], heading_rad: float) -> None:
-        *self.route, self.hold_ne = stem_route((0.0, 0.0), radius_m, current_ne_mps, pos_ne)
-        self.legs = LegNavigator(LosFollower(los_gains(params), LosType(int(params.get("USV_LOS_TYPE")))),
-                                 leg_config(params, params.get("USV_CIRC_SPD") + math.hypot(*current_ne_mps),
-                                            1.0))
-        self._leg = 0
-        self._set_leg(pos_ne)
-        self.current_ne_mps = current_ne_mps
-        self.keeper = CurrentStationKeeper(self.hold_ne, heading_rad, current_station_gains(params))
-        self.holding = False
-        self._turn_sign = 0.0
-
-    @classmethod
-    def when_needed(cls, params: ParamStore, drift: CurrentObserver | None, radius_m: float,
-                    pos_ne: tuple[float, float], heading_rad: float) -> StemHold | None:
-        """A hold when the observed current is at least ``USV_CIRC_HOLD_C``, else ``None`` (circle)."""
-        limit = params.get_or("USV_CIRC_HOLD_C", 0.0)
-        if drift is None or limit <= 0.0 or not drift.converged:
-            return None
-        if math.hypot(*drift.current_ne_mps) < limit:
-            return None
-        return cls(params, radius_m, drift.current_ne_mps, pos_ne, heading_rad)
-
-    def _set_leg(self, pos_ne: tuple[float, float]) -> None:
-        start = pos_ne if self._leg == 0 else self.route[self._leg - 1]
-        nxt = self.route[self._leg + 1] if self._leg + 1 < len(self.route) else None
-        self.legs.set_leg(start, self.route[self._leg], nxt)
-
-    def step(self, pos_ne: tuple[float, float], nav: NavState, dt_s: float) -> ControlTarget:
-        if not self.holding:
-            st = self.legs.update(pos_ne, nav.speed_over_ground_mps, dt_s, course_over_ground(nav))
-            if not st.reached:
-                return st.target
-            self._leg += 1
-            if self._leg < len(self.route):
-                self._set_leg(pos_ne)
-                return self.legs.update(pos_ne, nav.speed_over_ground_mps, dt_s,
-                                        course_over_ground(nav)).target
-            self.holding = True
-        out = self.keeper.update(pos_ne, self.current_ne_mps, dt_s)
-        speed, heading = out.surge_speed_mps, out.heading_rad
-        err = wrap_pi(out.heading_rad - nav.heading_rad)
-        if abs(err) > STEM_POWERED_TURN_RAD:
-            speed = max(speed, self.legs.cfg.turn_speed_mps)  # turn under power, not at idle
-        # a turn of about 180 deg keeps the direction it started in (near +-pi the sign of the
-        # heading error flips with every wave and the boat ran on straight, 60 m downstream)
-        if self._turn_sign == 0.0 and abs(err) > U_TURN_RAD:
-            self._turn_sign = math.copysign(1.0, err)
-        elif abs(err) < U_TURN_DONE_RAD:
-            self._turn_sign = 0.0
-        if self._turn_sign != 0.0 and math.copysign(1.0, err) != self._turn_sign:
-            heading = wrap_2pi(nav.heading_rad + self._turn_sign * U_TURN_RAD)
-        return ControlTarget(heading, speed, is_heading=True, hold_station=True)
 
 
 class Task(Protocol):

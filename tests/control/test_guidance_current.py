@@ -73,7 +73,7 @@ def _nav(frame: LocalFrame, n: float, e: float, vn: float, ve: float) -> NavStat
                     r_radps=0.0)
 
 
-@pytest.mark.parametrize(("current_mps", "holds"), [(1.2, True), (0.4, False)])
+@pytest.mark.parametrize(("current_mps", "holds"), [(1.2, True), (0.3, False)])
 def test_circle_item_holds_on_the_circle_only_in_a_current_it_cannot_circle_in(current_mps: float,
                                                                               holds: bool) -> None:
     params = ParamStore(all_param_defs())
@@ -93,6 +93,104 @@ def test_circle_item_holds_on_the_circle_only_in_a_current_it_cannot_circle_in(c
     again = CircleTask(params, point, 2.0, drift=obs)
     again.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
     assert again.stem is None
+
+
+def test_circle_item_picks_the_hold_from_the_estimator_before_the_observer_has_converged() -> None:
+    """After one straight leg the observer knows only the current across it: the estimator's
+    (confident, agreeing) current below the idle creep decides, so the first sampling point is held
+    too (USV_CIRC_HOLD_C below the creep); a stronger estimate is left to the observer, as before."""
+    params = ParamStore(all_param_defs())
+    params.set("USV_CIRC_HOLD_C", 0.4)
+    obs = CurrentObserver()
+    _run(obs, 0.0, 3.0, (0.0, 0.5), 30.0)
+    assert not obs.converged
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    blind = CircleTask(params, point, 2.0, drift=obs)
+    blind.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    assert blind.stem is None
+    task = CircleTask(params, point, 2.0, drift=obs, water_current=lambda: (0.0, 0.5))
+    task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    assert task.stem is not None and task.stem.hold_ne[0] == pytest.approx(-1.73, abs=0.05)
+    disagrees = CircleTask(params, point, 2.0, drift=obs, water_current=lambda: (0.0, 0.1))
+    disagrees.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    assert disagrees.stem is None
+    strong = CircleTask(ParamStore(all_param_defs()), point, 2.0, drift=CurrentObserver(),
+                        water_current=lambda: (0.0, 1.2))
+    strong.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    assert strong.stem is None
+
+
+def test_circle_item_keeps_circling_once_on_the_circle_when_the_estimate_arrives_late() -> None:
+    """A hold picked in the middle of a lap swept the boat 9 m off the circle: the choice is made
+    before the boat reaches the circle and not revisited."""
+    params = ParamStore(all_param_defs())
+    params.set("USV_CIRC_HOLD_C", 0.4)
+    current: list[tuple[float, float] | None] = [None]
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    task = CircleTask(params, point, 2.0, water_current=lambda: current[0])
+    task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    current[0] = (0.0, 0.5)  # known before the circle: still chosen
+    task.step(_nav(frame, -11.0, -3.0, 2.0, 0.0), 0.1)
+    assert task.stem is not None
+    late = CircleTask(params, point, 2.0, water_current=lambda: current[0])
+    current[0] = None
+    late.step(_nav(frame, -2.1, 0.0, 0.0, 1.6), 0.1)  # on the circle, no estimate yet
+    current[0] = (0.0, 0.5)
+    late.step(_nav(frame, -2.0, 0.2, 0.0, 1.6), 0.1)
+    assert late.stem is None and late.circling
+
+
+def test_observer_agrees_only_on_the_axes_it_has_seen() -> None:
+    obs = CurrentObserver()
+    _run(obs, 0.0, 3.0, (0.0, 0.5), 30.0)  # heading north: the east component is known
+    assert obs.agrees((0.4, 0.45), 0.15)  # north not yet seen: anything goes there
+    assert not obs.agrees((0.0, 0.2), 0.15)  # east off by 0.3 m/s
+
+
+def test_stem_route_below_creep_turns_the_hold_point_downstream_on_the_circle() -> None:
+    centre, current = (0.0, 0.0), (0.0, 0.5)  # flowing east
+    abeam, hold = stem_route(centre, 2.0, current, (-12.0, -3.0), abeam_m=8.0,
+                             downstream_rad=math.radians(30.0))
+    assert math.hypot(*hold) == pytest.approx(2.0)
+    assert hold == pytest.approx((-2.0 * math.cos(math.radians(30.0)), 1.0))  # south side, 1 m downstream
+    assert abeam == pytest.approx((-10.0, 0.0))
+    # creeping 2 m upstream from the hold point keeps within 0.3 m of the circle (a chord)
+    for k in range(21):
+        assert abs(math.hypot(hold[0], hold[1] - 0.1 * k) - 2.0) <= 0.3
+
+
+def _creep_params(limit_mps: float) -> ParamStore:
+    params = ParamStore(all_param_defs())
+    params.set("USV_CIRC_HOLD_C", limit_mps)
+    return params
+
+
+def test_circle_item_below_the_idle_creep_holds_only_when_enabled_and_circles_when_the_hold_is_lost() -> None:
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    default = CircleTask(ParamStore(all_param_defs()), point, 2.0, water_current=lambda: (0.0, 0.5))
+    default.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    assert default.stem is None  # 0.5 m/s is below the default USV_CIRC_HOLD_C (0.7): circles
+    task = CircleTask(_creep_params(0.4), point, 2.0, water_current=lambda: (0.0, 0.5))
+    task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    stem = task.stem
+    assert stem is not None and stem.below_creep
+    assert stem.hold_ne == pytest.approx((-1.73, 1.0), abs=0.01)
+    stem.holding = True  # as if the leg to the abeam point were done
+    task.step(_nav(frame, *stem.hold_ne, 0.0, -0.2), 0.1)
+    assert stem.on_hold and not stem.lost
+    target = task.step(_nav(frame, stem.hold_ne[0], stem.hold_ne[1] - 5.0, 0.0, -0.2), 0.1)  # crept 5 m
+    assert task.stem is None and task.circling  # given up near the circle: circling the point
+    assert not target.hold_station
+    far = CircleTask(_creep_params(0.4), point, 2.0, water_current=lambda: (0.0, 0.5))
+    far.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    first = far.stem
+    assert first is not None
+    first.holding = True
+    far.step(_nav(frame, -12.0, -25.0, 0.0, -0.2), 0.1)  # 20+ m upstream, never near the circle
+    assert far.stem is not None and far.stem is not first and not far.circling  # flown once more
 
 
 @pytest.mark.parametrize(("heading_deg", "inside", "sign"), [(180.0, 1.0, -1.0), (180.0, -1.0, 1.0),

@@ -17,7 +17,7 @@ from companion.messages import BOTTLE_COUNT, NavState, Severity
 from companion.mission import validate as v
 from companion.mission.items import MissionItem
 from companion.modes.auto_items import AutoRun, NavItem, Phase
-from companion.modes.navigation import CircleTask
+from companion.modes.navigation import CircleTask, estimator_current
 from companion.payloads.mission_checks import check_coordinates, in_range, is_default, param_range
 from companion.payloads.registry import PayloadEnv
 from companion.payloads.sampler.device import SampleJob, SampleRequest, WaterSampler
@@ -70,7 +70,8 @@ class SampleHereItem(NavItem):
         params = self.run.host.params
         default_radius_m = params.get_or("USV_SMPL_CIRC_M", params.get("USV_TURN_RAD"))
         radius = self.item.param2 if self.item.param2 > 0 else default_radius_m
-        self.run.task = CircleTask(params, self.point, radius, drift=self.run.drift)
+        self.run.task = CircleTask(params, self.point, radius, drift=self.run.drift,
+                                   water_current=estimator_current(self.run.host))
         self.run.phase = Phase.ACTION
         return False
 

@@ -1,0 +1,128 @@
+"""Holding on the circle of a circle item in a current it cannot circle in (:class:`StemHold`,
+the geometry of :mod:`companion.guidance.stem`): legs to the abeam point, then the current-fed
+station keeper (:class:`~companion.guidance.holding.CurrentStationKeeper`) onto the hold point."""
+
+from __future__ import annotations
+
+import math
+
+from companion.control.target import ControlTarget
+from companion.guidance.geo import wrap_2pi, wrap_pi
+from companion.guidance.hold_params import current_station_gains
+from companion.guidance.holding import CurrentStationKeeper
+from companion.guidance.los import LosFollower, LosType
+from companion.guidance.params import leg_config, los_gains
+from companion.guidance.stem import stem_route
+from companion.guidance.waypoints import U_TURN_DONE_RAD, U_TURN_RAD, LegNavigator
+from companion.messages import NavState
+from companion.modes.base import course_over_ground
+from companion.params import ParamStore
+
+STEM_POWERED_TURN_RAD = math.radians(60.0)
+"""On the circle the hold turns at the corner speed while the bow is farther than this off the
+heading the station keeper wants: at idle the turn is slow and a strong current sweeps the boat
+tens of metres downstream before the bow is into it (measured: 45 m in 1.2 m/s).  Not below the
+idle creep: there the creep turns the boat, and at the corner speed the keeper's heading, 70 deg
+off upstream, ran it 10 m off the circle in a straight line."""
+
+
+CREEP_ABEAM_M = 8.0
+"""Below the idle creep the boat turns into the current this far outside the circle (at 5 m it
+came in at speed and ran through the hold point and the circle)."""
+CREEP_HOLD_DOWNSTREAM_RAD = math.radians(30.0)
+"""Below the idle creep the hold point is this far round the circle downstream of the line
+across the current (the creep upstream then runs along a chord of the circle)."""
+CREEP_HANDOVER_M = 5.0
+"""Below the idle creep a boat coming from farther downstream than this hands over from the leg to
+the keeper this far from the abeam point (arriving there heading upstream at the leg speed it ran
+on 5-7 m upstream and came back across the hold point diagonally)."""
+CREEP_ON_HOLD_M = 1.0
+CREEP_LOST_M = 4.0
+"""Below the idle creep a hold that has reached its point (within CREEP_ON_HOLD_M) and then crept
+this far off it is given up for circling (the boat cannot stop: it crept upstream 60 m in 0.3 m/s,
+looping, and the bottle never filled) ..."""
+CREEP_RUNAWAY_M = 20.0
+"""... and one that has never reached it, this far off."""
+
+
+class StemHold:
+    """Keep station on the circle, bow into the current (:mod:`companion.guidance.stem`): a leg to
+    the abeam point, then the current-fed station keeper
+    (:class:`~companion.guidance.holding.CurrentStationKeeper`, the observed current as its
+    feed-forward) onto the hold point."""
+
+    def __init__(self, params: ParamStore, radius_m: float, current_ne_mps: tuple[float, float],
+                 pos_ne: tuple[float, float], heading_rad: float) -> None:
+        self.below_creep = math.hypot(*current_ne_mps) < params.get_or("USV_HOLD_CREEP", 0.0)
+        """The boat cannot stand on the hold point (:mod:`companion.guidance.stem`): wider abeam
+        point, hold point turned downstream."""
+        *self.route, self.hold_ne = stem_route(
+            (0.0, 0.0), radius_m, current_ne_mps, pos_ne,
+            *((CREEP_ABEAM_M, CREEP_HOLD_DOWNSTREAM_RAD) if self.below_creep else ()))
+        abeam = self.route[0]
+        speed_c = math.hypot(*current_ne_mps)
+        downstream_m = ((pos_ne[0] - abeam[0]) * current_ne_mps[0]
+                        + (pos_ne[1] - abeam[1]) * current_ne_mps[1]) / max(speed_c, 1e-6)
+        from_downstream = downstream_m > CREEP_HANDOVER_M
+        accept_m = CREEP_HANDOVER_M if self.below_creep and from_downstream else 1.0
+        self.legs = LegNavigator(LosFollower(los_gains(params), LosType(int(params.get("USV_LOS_TYPE")))),
+                                 leg_config(params, params.get("USV_CIRC_SPD") + math.hypot(*current_ne_mps),
+                                            accept_m))
+        self._leg = 0
+        self._set_leg(pos_ne)
+        self.current_ne_mps = current_ne_mps
+        self.keeper = CurrentStationKeeper(self.hold_ne, heading_rad, current_station_gains(params))
+        self.holding = False
+        self.on_hold = False
+        """The boat has been within :data:`CREEP_ON_HOLD_M` of the hold point."""
+        self.lost = False
+        """Set when a hold below the idle creep has crept off (:data:`CREEP_LOST_M`): circle instead."""
+        self._turn_sign = 0.0
+
+    @classmethod
+    def when_needed(cls, params: ParamStore, current_ne_mps: tuple[float, float] | None, radius_m: float,
+                    pos_ne: tuple[float, float], heading_rad: float,
+                    strength_mps: float | None = None) -> StemHold | None:
+        """A hold on ``current_ne_mps`` (north, east m/s; ``None``: unknown) when ``strength_mps``
+        (default: its speed) is at least ``USV_CIRC_HOLD_C``, else ``None`` (circle)."""
+        limit = params.get_or("USV_CIRC_HOLD_C", 0.0)
+        if current_ne_mps is None or limit <= 0.0:
+            return None
+        if (math.hypot(*current_ne_mps) if strength_mps is None else strength_mps) < limit:
+            return None
+        return cls(params, radius_m, current_ne_mps, pos_ne, heading_rad)
+
+    def _set_leg(self, pos_ne: tuple[float, float]) -> None:
+        start = pos_ne if self._leg == 0 else self.route[self._leg - 1]
+        nxt = self.route[self._leg + 1] if self._leg + 1 < len(self.route) else None
+        self.legs.set_leg(start, self.route[self._leg], nxt)
+
+    def step(self, pos_ne: tuple[float, float], nav: NavState, dt_s: float) -> ControlTarget:
+        if not self.holding:
+            st = self.legs.update(pos_ne, nav.speed_over_ground_mps, dt_s, course_over_ground(nav))
+            if not st.reached:
+                return st.target
+            self._leg += 1
+            if self._leg < len(self.route):
+                self._set_leg(pos_ne)
+                return self.legs.update(pos_ne, nav.speed_over_ground_mps, dt_s,
+                                        course_over_ground(nav)).target
+            self.holding = True
+        off_m = math.dist(pos_ne, self.hold_ne)
+        self.on_hold = self.on_hold or off_m < CREEP_ON_HOLD_M
+        if self.below_creep and (off_m > (CREEP_LOST_M if self.on_hold else CREEP_RUNAWAY_M)):
+            self.lost = True
+        out = self.keeper.update(pos_ne, self.current_ne_mps, dt_s)
+        speed, heading = out.surge_speed_mps, out.heading_rad
+        err = wrap_pi(out.heading_rad - nav.heading_rad)
+        if abs(err) > STEM_POWERED_TURN_RAD and not self.below_creep:
+            speed = max(speed, self.legs.cfg.turn_speed_mps)  # turn under power, not at idle
+        # a turn of about 180 deg keeps the direction it started in (near +-pi the sign of the
+        # heading error flips with every wave and the boat ran on straight, 60 m downstream)
+        if self._turn_sign == 0.0 and abs(err) > U_TURN_RAD:
+            self._turn_sign = math.copysign(1.0, err)
+        elif abs(err) < U_TURN_DONE_RAD:
+            self._turn_sign = 0.0
+        if self._turn_sign != 0.0 and math.copysign(1.0, err) != self._turn_sign:
+            heading = wrap_2pi(nav.heading_rad + self._turn_sign * U_TURN_RAD)
+        return ControlTarget(heading, speed, is_heading=True, hold_station=True)
