@@ -94,13 +94,7 @@ def _item(seq: int, command: int, lat_lon: tuple[float, float] | None = None, *p
 
 def plan(boat: Boat, casualty_ne: tuple[float, float], args: argparse.Namespace) -> dict[str, Any]:
     """The mission items and the geometry they were planned from (north-east metres from home)."""
-    est = boat.rec.water_current
-    drift = None if est is None else (est.north_mps, est.east_mps, est.confidence)
-    return plan_from(boat.frame(), boat.position_ne(), casualty_ne, args, drift)
-
-
-Drift = tuple[float, float, float]
-"""A water-current estimate: north m/s, east m/s, confidence (0..1)."""
+    return plan_from(boat.frame(), boat.position_ne(), casualty_ne, args, boat.rec.water_current)
 
 
 def confident(est: WaterCurrent | None) -> bool:
@@ -108,24 +102,23 @@ def confident(est: WaterCurrent | None) -> bool:
     return est is not None and est.confidence >= MIN_CONFIDENCE
 
 
-def upstream_unit(drift: Drift | None, args: argparse.Namespace) -> tuple[float, float] | None:
+def upstream_unit(drift: WaterCurrent | None, args: argparse.Namespace) -> tuple[float, float] | None:
     """The unit vector (north, east) against the water's flow when the launch should be made from
-    downstream: ``--approach upstream`` and an estimate (north m/s, east m/s, confidence) of at
-    least ``--min-current`` m/s that stands out of its uncertainty (confidence >= 0.5, the
-    vehicle's own threshold for holding station bow into the current); else ``None``."""
-    if args.approach != "upstream" or drift is None:
+    downstream: ``--approach upstream`` and a :func:`confident` estimate of at least
+    ``--min-current`` m/s (confidence >= 0.5, the vehicle's own threshold for holding station bow
+    into the current); else ``None``."""
+    if args.approach != "upstream" or drift is None or not confident(drift):
         return None
-    north, east, confidence = drift
-    speed = math.hypot(north, east)
-    if not (math.isfinite(speed) and speed >= args.min_current and confidence >= MIN_CONFIDENCE):
+    speed = drift.speed_mps
+    if not (math.isfinite(speed) and speed >= args.min_current):
         return None
-    return (-north / speed, -east / speed)
+    return (-drift.north_mps / speed, -drift.east_mps / speed)
 
 
 def plan_from(frame: LocalFrame, here: tuple[float, float], casualty_ne: tuple[float, float],
-              args: argparse.Namespace, drift: Drift | None = None) -> dict[str, Any]:
+              args: argparse.Namespace, drift: WaterCurrent | None = None) -> dict[str, Any]:
     """:func:`plan` for a boat at ``here`` (north-east metres in ``frame``) in water drifting at
-    ``drift`` (north m/s, east m/s, confidence; the vehicle's USV_CURRENT_ESTIMATE); also used by
+    ``drift`` (the vehicle's USV_CURRENT_ESTIMATE); also used by
     campaigns (``usv campaign``), which fly the same plan in-process.
 
     In moving water (see :func:`upstream_unit`) the launch point is ``--standoff`` metres

@@ -41,7 +41,7 @@ import math
 import tempfile
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -54,6 +54,9 @@ from companion.vehicle import MissionState
 from sim_bridge.campaign.spec import CampaignSpec, Sample
 from sim_bridge.sitl import SitlHarness
 from sim_bridge.truthlog import TruthLog
+
+if TYPE_CHECKING:
+    from missions.common import WaterCurrent
 
 SETTLE_S = 2.0
 """Simulated seconds before arming (first fixes, home)."""
@@ -76,7 +79,7 @@ class Plan:
     """A script's plan for this run: items, item time limits, and what the figures need."""
 
     def __init__(self, spec: CampaignSpec, frame: LocalFrame, here_ne: tuple[float, float],
-                 turn_radius_m: float, drift: tuple[float, float, float] | None = None) -> None:
+                 turn_radius_m: float, drift: WaterCurrent | None = None) -> None:
         self.script = spec.script
         self.args = spec.script_args()
         self.limits_s: dict[int, float] = {}
@@ -128,6 +131,8 @@ async def fly(spec: CampaignSpec, sample: Sample, workdir: Path) -> dict[str, An
                 raise RunFailed(f"arming refused: {reason}")
             home = (vehicle.home.lat_deg, vehicle.home.lon_deg)
             frame = LocalFrame(*home)
+            from missions.common import WaterCurrent
+
             if spec.script == "rescue":  # the script waits so for USV_CURRENT_ESTIMATE
                 from missions.rescue import CURRENT_WAIT_S, MIN_CONFIDENCE
 
@@ -136,7 +141,7 @@ async def fly(spec: CampaignSpec, sample: Sample, workdir: Path) -> dict[str, An
             nav = vehicle.nav()
             assert nav is not None
             est = vehicle.water_current
-            drift = None if est is None else (est.north_mps, est.east_mps, est.confidence)
+            drift = None if est is None else WaterCurrent(est.north_mps, est.east_mps, est.confidence)
             plan = Plan(spec, frame, frame.to_ne(nav.lat_deg, nav.lon_deg), h.ctx.params.get("USV_TURN_RAD"),
                         drift)
             problem = h.services.mavlink.missions.install(MissionType.MISSION, plan.items)

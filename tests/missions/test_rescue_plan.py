@@ -12,14 +12,17 @@ import pytest
 
 from companion.guidance.geo import LocalFrame
 from missions import rescue
-from missions.common import MissionError
+from missions.common import MissionError, WaterCurrent
 
 FRAME = LocalFrame(41.77, 123.43)
 HOME = (0.0, 0.0)
 
 
-def plan(casualty: tuple[float, float], drift: rescue.Drift | None, *extra: str) -> dict[str, Any]:
-    return rescue.plan_from(FRAME, HOME, casualty, rescue.parse_args(list(extra)), drift)
+def plan(casualty: tuple[float, float], drift: tuple[float, float, float] | None,
+         *extra: str) -> dict[str, Any]:
+    """The plan in water drifting at ``drift`` (north m/s, east m/s, confidence)."""
+    current = None if drift is None else WaterCurrent(*drift)
+    return rescue.plan_from(FRAME, HOME, casualty, rescue.parse_args(list(extra)), current)
 
 
 def route(p: dict[str, Any]) -> list[tuple[float, float]]:
