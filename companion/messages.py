@@ -92,6 +92,11 @@ class NavState:
     def speed_over_ground_mps(self) -> float:
         return float((self.vel_north_mps**2 + self.vel_east_mps**2) ** 0.5)
 
+    @property
+    def course_over_ground_rad(self) -> float:
+        """Course over ground, clockwise from north (rad, -pi..pi), from the velocity."""
+        return math.atan2(self.vel_east_mps, self.vel_north_mps)
+
 
 @dataclass(frozen=True, slots=True)
 class EngineState:

@@ -103,7 +103,7 @@ class CrabEstimator:
 
     def update(self, nav: NavState, dt_s: float) -> float:
         if nav.speed_over_ground_mps >= self.min_speed_mps:
-            chi = math.atan2(nav.vel_east_mps, nav.vel_north_mps)
+            chi = nav.course_over_ground_rad
             beta = wrap_pi(chi - nav.heading_rad)
             # filter on the unit circle so that +-pi wrap does not upset it
             s = self._lp_sin.step(math.sin(beta), dt_s)

@@ -125,7 +125,7 @@ def gps_raw_int(ctx: Context, vehicle: Vehicle) -> Any:
                                                UINT16_UNKNOWN, 255)
     fix = int(nav.fix_type) if _fresh(ctx, nav.t_s) else int(FixType.NO_FIX)
     sog = nav.speed_over_ground_mps
-    cog = math.atan2(nav.vel_east_mps, nav.vel_north_mps)
+    cog = nav.course_over_ground_rad
     return mav.MAVLink_gps_raw_int_message(
         int(ctx.clock.unix_time_s() * 1e6), fix, round(nav.lat_deg * 1e7), round(nav.lon_deg * 1e7),
         round(nav.alt_m * 1000), UINT16_UNKNOWN, UINT16_UNKNOWN, min(UINT16_UNKNOWN - 1, round(sog * 100)),

@@ -19,7 +19,6 @@ MAVSDK decode them; a mode Rover lacks takes a number Rover does not use (CRUISE
 from __future__ import annotations
 
 import enum
-import math
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -118,8 +117,3 @@ def requires_position(host: ModeHost) -> str | None:
     if nav is None or not nav.position_valid:
         return "no position estimate"
     return None
-
-
-def course_over_ground(nav: NavState) -> float:
-    """Course over ground (rad) from the navigation solution's velocity."""
-    return math.atan2(nav.vel_east_mps, nav.vel_north_mps)

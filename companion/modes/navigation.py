@@ -26,7 +26,7 @@ from companion.guidance.params import circle_gains, leg_config, los_gains, stati
 from companion.guidance.station import StationKeeper
 from companion.guidance.waypoints import U_TURN_DONE_RAD, U_TURN_RAD, LegNavigator, u_turn_sign
 from companion.messages import NavState
-from companion.modes.base import Mode, NavTarget, course_over_ground, requires_position
+from companion.modes.base import Mode, NavTarget, requires_position
 from companion.modes.host import ModeHost
 from companion.modes.stem_hold import StemHold
 from companion.params import ParamStore
@@ -129,7 +129,7 @@ class GotoTask:
         drift = self.drift if self.drift is not None and self.drift.converged else None
         plan_current = drift.current_ne_mps if drift is not None and int(
             self.params.get_or("USV_WP_DRIFT", 0.0)) == 1 else None
-        st = self.nav.update(pos, nav.speed_over_ground_mps, dt_s, course_over_ground(nav), plan_current)
+        st = self.nav.update(pos, nav.speed_over_ground_mps, dt_s, nav.course_over_ground_rad, plan_current)
         end = self.nav.end
         self.distance_m = math.hypot(end[0] - pos[0], end[1] - pos[1])
         self.cross_track_m = st.errors.cross_m

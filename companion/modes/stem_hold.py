@@ -15,7 +15,6 @@ from companion.guidance.params import leg_config, los_gains
 from companion.guidance.stem import stem_route
 from companion.guidance.waypoints import U_TURN_DONE_RAD, U_TURN_RAD, LegNavigator
 from companion.messages import NavState
-from companion.modes.base import course_over_ground
 from companion.params import ParamStore
 
 STEM_POWERED_TURN_RAD = math.radians(60.0)
@@ -99,14 +98,14 @@ class StemHold:
 
     def step(self, pos_ne: tuple[float, float], nav: NavState, dt_s: float) -> ControlTarget:
         if not self.holding:
-            st = self.legs.update(pos_ne, nav.speed_over_ground_mps, dt_s, course_over_ground(nav))
+            st = self.legs.update(pos_ne, nav.speed_over_ground_mps, dt_s, nav.course_over_ground_rad)
             if not st.reached:
                 return st.target
             self._leg += 1
             if self._leg < len(self.route):
                 self._set_leg(pos_ne)
                 return self.legs.update(pos_ne, nav.speed_over_ground_mps, dt_s,
-                                        course_over_ground(nav)).target
+                                        nav.course_over_ground_rad).target
             self.holding = True
         off_m = math.dist(pos_ne, self.hold_ne)
         self.on_hold = self.on_hold or off_m < CREEP_ON_HOLD_M

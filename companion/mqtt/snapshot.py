@@ -65,7 +65,7 @@ class StateSnapshot:
         nav = self._nav.latest()
         if nav is None:
             return None
-        course_rad = math.atan2(nav.vel_east_mps, nav.vel_north_mps)
+        course_rad = nav.course_over_ground_rad
         return {**self._stamp(), "lat_deg": round(nav.lat_deg, 7), "lon_deg": round(nav.lon_deg, 7),
                 "heading_deg": _deg(nav.heading_rad), "sog_mps": round(nav.speed_over_ground_mps, 3),
                 "cog_deg": _deg(course_rad), "fix_type": int(nav.fix_type),

@@ -133,17 +133,19 @@ async def fly(spec: CampaignSpec, sample: Sample, workdir: Path) -> dict[str, An
             frame = LocalFrame(*home)
             from missions.common import WaterCurrent
 
-            if spec.script == "rescue":  # the script waits so for USV_CURRENT_ESTIMATE
-                from missions.rescue import CURRENT_WAIT_S, MIN_CONFIDENCE
+            def drift() -> WaterCurrent | None:
+                """The vehicle's estimate, as the script reads it (USV_CURRENT_ESTIMATE)."""
+                est = vehicle.water_current
+                return None if est is None else WaterCurrent(est.north_mps, est.east_mps, est.confidence)
 
-                await h.run_until(lambda: (e := vehicle.water_current) is not None
-                                  and e.confidence >= MIN_CONFIDENCE, CURRENT_WAIT_S, POLL_S)
+            if spec.script == "rescue":  # the script waits so for a confident estimate
+                from missions.rescue import CURRENT_WAIT_S, confident
+
+                await h.run_until(lambda: confident(drift()), CURRENT_WAIT_S, POLL_S)
             nav = vehicle.nav()
             assert nav is not None
-            est = vehicle.water_current
-            drift = None if est is None else WaterCurrent(est.north_mps, est.east_mps, est.confidence)
             plan = Plan(spec, frame, frame.to_ne(nav.lat_deg, nav.lon_deg), h.ctx.params.get("USV_TURN_RAD"),
-                        drift)
+                        drift())
             problem = h.services.mavlink.missions.install(MissionType.MISSION, plan.items)
             if problem is not None:
                 raise RunFailed(f"mission refused: {problem.reason}")
