@@ -8,6 +8,14 @@ import sys
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
+
+settings.register_profile("repeatable", derandomize=True, deadline=None)
+"""The suite's default: the same examples on every run and machine (a red CI is a regression, not
+a lucky draw), and no wall-clock deadline per example (timing follows the simulated clock)."""
+settings.register_profile("explore", max_examples=2000, deadline=None)
+"""``HYPOTHESIS_PROFILE=explore``: new random examples, many of them, to search for counterexamples."""
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "repeatable"))
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 

@@ -6,10 +6,10 @@ from __future__ import annotations
 import math
 
 import pytest
-from hypothesis import given
+from hypothesis import example, given
 from hypothesis import strategies as st
 
-from companion.guidance.current import CurrentObserver, crab_heading, water_speed_mps
+from companion.guidance.current import MAX_CRAB_SIN, CurrentObserver, crab_heading, water_speed_mps
 from companion.guidance.geo import LocalFrame
 from companion.guidance.stem import stem_route
 from companion.guidance.waypoints import drift_lead_m, u_turn_sign
@@ -43,11 +43,20 @@ def test_observer_learns_the_current_from_two_legs_and_skips_turns() -> None:
 
 
 @given(st.floats(0.0, 2 * math.pi), st.floats(2.0, 6.0), st.floats(-1.2, 1.2), st.floats(-1.2, 1.2))
+@example(2.5, 2.0, 1.125, 1.1875)  # more current across than the capped crab stems (found on main)
 def test_crab_heading_makes_good_the_course(course: float, water: float, cn: float, ce: float) -> None:
     psi = crab_heading(course, water, (cn, ce))
     vn, ve = water * math.cos(psi) + cn, water * math.sin(psi) + ce
-    # the velocity over ground has no component across the desired course
-    assert -vn * math.sin(course) + ve * math.cos(course) == pytest.approx(0.0, abs=1e-9)
+    across_mps = -vn * math.sin(course) + ve * math.cos(course)
+    current_across_mps = -cn * math.sin(course) + ce * math.cos(course)
+    crab_rad = abs(math.remainder(course - psi, 2 * math.pi))
+    if abs(current_across_mps) <= MAX_CRAB_SIN * water:
+        assert across_mps == pytest.approx(0.0, abs=1e-9)  # nothing across the desired course
+    else:  # more current across than the capped crab can stem: the full crab, set the current's way
+        assert crab_rad == pytest.approx(math.asin(MAX_CRAB_SIN))
+        assert across_mps * current_across_mps > 0.0
+        assert abs(across_mps) < abs(current_across_mps)
+    assert crab_rad <= math.asin(MAX_CRAB_SIN) + 1e-12
     assert water_speed_mps(vn, ve, (cn, ce)) == pytest.approx(water)
 
 
