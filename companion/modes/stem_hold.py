@@ -5,6 +5,7 @@ station keeper (:class:`~companion.guidance.holding.CurrentStationKeeper`) onto 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 from companion.control.target import ControlTarget
 from companion.guidance.geo import wrap_2pi, wrap_pi
@@ -35,6 +36,12 @@ CREEP_HANDOVER_M = 5.0
 """Below the idle creep a boat coming from farther downstream than this hands over from the leg to
 the keeper this far from the abeam point (arriving there heading upstream at the leg speed it ran
 on 5-7 m upstream and came back across the hold point diagonally)."""
+CREEP_KEEPER_KI_PER_S2 = 0.0
+"""Below the idle creep the keeper runs without its integral (``CurrentStationGains.ki_per_s2``):
+the boat cannot stand still, so there is no steady error for it to learn, and it wound up on the
+ferry from the abeam point instead (0.5 m/s, as large as the current, 3.5 s after the handover on
+usv bench nav's 0.5 m/s tuning cell), pushing the boat metres past its point across the current
+and back (docs/tuning.md)."""
 CREEP_ON_HOLD_M = 1.0
 CREEP_LOST_M = 4.0
 """Below the idle creep a hold that has reached its point (within CREEP_ON_HOLD_M) and then crept
@@ -70,7 +77,10 @@ class StemHold:
         self._leg = 0
         self._set_leg(pos_ne)
         self.current_ne_mps = current_ne_mps
-        self.keeper = CurrentStationKeeper(self.hold_ne, heading_rad, current_station_gains(params))
+        gains = current_station_gains(params)
+        if self.below_creep:
+            gains = replace(gains, ki_per_s2=CREEP_KEEPER_KI_PER_S2)
+        self.keeper = CurrentStationKeeper(self.hold_ne, heading_rad, gains)
         self.holding = False
         self.on_hold = False
         """The boat has been within :data:`CREEP_ON_HOLD_M` of the hold point."""

@@ -193,6 +193,29 @@ def test_circle_item_below_the_idle_creep_holds_only_when_enabled_and_circles_wh
     assert far.stem is not None and far.stem is not first and not far.circling  # flown once more
 
 
+def test_hold_below_the_creep_does_not_wind_up_on_the_ferry_to_its_point() -> None:
+    """Below the idle creep the keeper has no integral: 4 m off its point for 10 s (the ferry from
+    the abeam point) it asks the same heading as at the start; above the creep the integral still
+    learns what the estimate misses."""
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    for current, winds_up in (((0.0, 0.5), False), ((0.0, 1.2), True)):
+        obs = CurrentObserver()
+        _run(obs, 0.0, 4.0, current, 30.0)
+        _run(obs, math.pi / 2, 4.0, current, 30.0)
+        task = CircleTask(_creep_params(0.4), point, 2.0, drift=obs)
+        task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+        stem = task.stem
+        assert stem is not None and stem.below_creep is not winds_up
+        stem.holding = True
+        off = _nav(frame, stem.hold_ne[0] - 3.0, stem.hold_ne[1] + 3.0, 0.0, -0.2)
+        first = task.step(off, 0.1).course_rad
+        for _ in range(100):
+            last = task.step(off, 0.1).course_rad
+        turned_deg = math.degrees(abs(math.remainder(last - first, 2 * math.pi)))
+        assert turned_deg > 2.0 if winds_up else turned_deg < 0.1
+
+
 @pytest.mark.parametrize(("heading_deg", "inside", "sign"), [(180.0, 1.0, -1.0), (180.0, -1.0, 1.0),
                                                              (170.0, 1.0, -1.0), (190.0, -1.0, 1.0)])
 def test_u_turn_onto_a_leg_turns_toward_the_inside_of_the_route(heading_deg: float, inside: float,
