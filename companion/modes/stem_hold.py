@@ -48,7 +48,11 @@ CREEP_LOST_M = 4.0
 this far off it is given up for circling (the boat cannot stop: it crept upstream 60 m in 0.3 m/s,
 looping, and the bottle never filled) ..."""
 CREEP_RUNAWAY_M = 20.0
-"""... and one that has never reached it, this far off."""
+"""... and one that has never reached it, this far off ..."""
+CREEP_REACH_S = 60.0
+"""... or this long after the keeper took over (without its integral the keeper can leave the boat
+at idle where creep, current and wind cancel: on the flood's tuning seeds 22/23 a retried first
+hold sat there 475 s and 900+ s and the bottle never filled)."""
 
 
 class StemHold:
@@ -82,6 +86,8 @@ class StemHold:
             gains = replace(gains, ki_per_s2=CREEP_KEEPER_KI_PER_S2)
         self.keeper = CurrentStationKeeper(self.hold_ne, heading_rad, gains)
         self.holding = False
+        self.keeper_s = 0.0
+        """Seconds since the keeper took over from the legs."""
         self.on_hold = False
         """The boat has been within :data:`CREEP_ON_HOLD_M` of the hold point."""
         self.lost = False
@@ -118,8 +124,10 @@ class StemHold:
                                         nav.course_over_ground_rad).target
             self.holding = True
         off_m = math.dist(pos_ne, self.hold_ne)
+        self.keeper_s += dt_s
         self.on_hold = self.on_hold or off_m < CREEP_ON_HOLD_M
-        if self.below_creep and (off_m > (CREEP_LOST_M if self.on_hold else CREEP_RUNAWAY_M)):
+        if self.below_creep and (off_m > (CREEP_LOST_M if self.on_hold else CREEP_RUNAWAY_M)
+                                 or (not self.on_hold and self.keeper_s > CREEP_REACH_S)):
             self.lost = True
         out = self.keeper.update(pos_ne, self.current_ne_mps, dt_s)
         speed, heading = out.surge_speed_mps, out.heading_rad

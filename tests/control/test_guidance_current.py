@@ -216,6 +216,28 @@ def test_hold_below_the_creep_does_not_wind_up_on_the_ferry_to_its_point() -> No
         assert turned_deg > 2.0 if winds_up else turned_deg < 0.1
 
 
+def test_hold_below_the_creep_that_never_reaches_its_point_is_given_up_after_a_minute() -> None:
+    """A boat stalled 3 m from its hold point (creep, current and wind cancelling at idle) is
+    neither on the hold nor 20 m off: after 60 s of the keeper the hold is flown once more, then
+    the item circles instead of waiting for ever."""
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    task = CircleTask(_creep_params(0.4), point, 2.0, water_current=lambda: (0.0, 0.5))
+    task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    for _attempt in range(2):
+        stem = task.stem
+        assert stem is not None and stem.below_creep and not task.circling
+        stem.holding = True  # as if the legs were done
+        stalled = _nav(frame, stem.hold_ne[0] - 3.0, stem.hold_ne[1], 0.0, 0.0)
+        for _ in range(590):
+            task.step(stalled, 0.1)
+        assert task.stem is stem  # 59 s: still trying
+        for _ in range(20):
+            task.step(stalled, 0.1)
+        assert task.stem is not stem
+    assert task.stem is None and task.circling
+
+
 @pytest.mark.parametrize(("heading_deg", "inside", "sign"), [(180.0, 1.0, -1.0), (180.0, -1.0, 1.0),
                                                              (170.0, 1.0, -1.0), (190.0, -1.0, 1.0)])
 def test_u_turn_onto_a_leg_turns_toward_the_inside_of_the_route(heading_deg: float, inside: float,
