@@ -41,7 +41,9 @@ CREEP_KEEPER_KI_PER_S2 = 0.0
 the boat cannot stand still, so there is no steady error for it to learn, and it wound up on the
 ferry from the abeam point instead (0.5 m/s, as large as the current, 3.5 s after the handover on
 usv bench nav's 0.5 m/s tuning cell), pushing the boat metres past its point across the current
-and back (docs/tuning.md)."""
+and back (docs/tuning.md).  Its bow clamped off upstream, the keeper also caps its surge so that
+the boat makes good the desired velocity's component along the current
+(:attr:`~companion.guidance.holding.CurrentStationGains.cap_clamped_surge`)."""
 CREEP_ON_HOLD_M = 1.0
 CREEP_LOST_M = 4.0
 """Below the idle creep a hold that has reached its point (within CREEP_ON_HOLD_M) and then crept
@@ -83,7 +85,7 @@ class StemHold:
         self.current_ne_mps = current_ne_mps
         gains = current_station_gains(params)
         if self.below_creep:
-            gains = replace(gains, ki_per_s2=CREEP_KEEPER_KI_PER_S2)
+            gains = replace(gains, ki_per_s2=CREEP_KEEPER_KI_PER_S2, cap_clamped_surge=True)
         self.keeper = CurrentStationKeeper(self.hold_ne, heading_rad, gains)
         self.holding = False
         self.keeper_s = 0.0
