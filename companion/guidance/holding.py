@@ -78,6 +78,11 @@ class HoldOutput:
     turn_rate_radps: float
     distance_m: float
     radial_error_m: float = 0.0
+    surge_cap_mps: float = math.inf
+    """With the bow clamped off upstream (the station keeper: the desired water velocity points
+    farther off than ``max_off_upstream_rad``), the largest surge at which the boat still makes
+    good the desired velocity's component along the current (:func:`clamped_surge_cap_mps`); the
+    caller decides whether to apply it."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -89,13 +94,6 @@ class CurrentStationGains:
     min_speed_mps: float = 0.15
     """Below this desired water speed the heading freezes (slack on station)."""
     max_off_upstream_rad: float = math.radians(70.0)
-    cap_clamped_surge: bool = False
-    """With the bow clamped off upstream (``w`` points farther off than ``max_off_upstream_rad``),
-    cap the surge so that the boat makes good at least ``v_g``'s component along the current
-    (:func:`clamped_surge_cap_mps`).  Below the idle creep a boat upstream of its point wants to go down: the
-    projection of ``v_g`` on the clamped heading asked 1-1.3 m/s, and at that water speed the bow's
-    upstream component cancelled the current, so the boat ferried across the current without
-    coming down (usv bench nav, 0.5 m/s tuning cell, docs/tuning.md)."""
 
 
 class CurrentStationKeeper:
@@ -133,9 +131,8 @@ class CurrentStationKeeper:
                 heading = upstream + max(-g.max_off_upstream_rad, min(g.max_off_upstream_rad, off))
             self.heading_rad = wrap_2pi(heading)
         surge = vn * math.cos(self.heading_rad) + ve * math.sin(self.heading_rad)
-        if clamped and g.cap_clamped_surge:
-            surge = min(surge, clamped_surge_cap_mps(self.heading_rad, (vn, ve), current_ne_mps))
-        return HoldOutput(self.heading_rad, surge, 0.0, math.hypot(en, ee))
+        cap = clamped_surge_cap_mps(self.heading_rad, (vn, ve), current_ne_mps) if clamped else math.inf
+        return HoldOutput(self.heading_rad, surge, 0.0, math.hypot(en, ee), surge_cap_mps=cap)
 
 
 def clamped_surge_cap_mps(heading_rad: float, v_g_ne: tuple[float, float],

@@ -41,9 +41,16 @@ CREEP_KEEPER_KI_PER_S2 = 0.0
 the boat cannot stand still, so there is no steady error for it to learn, and it wound up on the
 ferry from the abeam point instead (0.5 m/s, as large as the current, 3.5 s after the handover on
 usv bench nav's 0.5 m/s tuning cell), pushing the boat metres past its point across the current
-and back (docs/tuning.md).  Its bow clamped off upstream, the keeper also caps its surge so that
-the boat makes good the desired velocity's component along the current
-(:attr:`~companion.guidance.holding.CurrentStationGains.cap_clamped_surge`)."""
+and back (docs/tuning.md)."""
+CREEP_CAP_WITHIN_RAD = math.radians(30.0)
+"""Below the idle creep, with the keeper's bow clamped off upstream and the boat's bow within this
+of it, the surge is capped so the boat makes good the desired velocity's component along the
+current (:attr:`~companion.guidance.holding.HoldOutput.surge_cap_mps`; idle, in practice).
+Upstream of its point the projection of the desired velocity on the clamped heading asked
+1-1.35 m/s, whose upstream component cancelled the current: the boat ferried across the current
+2-4 m upstream of its point for a minute (usv bench nav's 0.5 m/s tuning cell).  Not while the
+bow is farther off: idling then, the jet barely turned and the boat drifted 7 m upstream (flood,
+first point)."""
 CREEP_ON_HOLD_M = 1.0
 CREEP_LOST_M = 4.0
 """Below the idle creep a hold that has reached its point (within CREEP_ON_HOLD_M) and then crept
@@ -85,7 +92,7 @@ class StemHold:
         self.current_ne_mps = current_ne_mps
         gains = current_station_gains(params)
         if self.below_creep:
-            gains = replace(gains, ki_per_s2=CREEP_KEEPER_KI_PER_S2, cap_clamped_surge=True)
+            gains = replace(gains, ki_per_s2=CREEP_KEEPER_KI_PER_S2)
         self.keeper = CurrentStationKeeper(self.hold_ne, heading_rad, gains)
         self.holding = False
         self.keeper_s = 0.0
@@ -134,6 +141,8 @@ class StemHold:
         out = self.keeper.update(pos_ne, self.current_ne_mps, dt_s)
         speed, heading = out.surge_speed_mps, out.heading_rad
         err = wrap_pi(out.heading_rad - nav.heading_rad)
+        if self.below_creep and abs(err) < CREEP_CAP_WITHIN_RAD:
+            speed = min(speed, out.surge_cap_mps)
         if abs(err) > STEM_POWERED_TURN_RAD and not self.below_creep:
             speed = max(speed, self.legs.cfg.turn_speed_mps)  # turn under power, not at idle
         # a turn of about 180 deg keeps the direction it started in (near +-pi the sign of the

@@ -56,19 +56,17 @@ def test_clamped_surge_cap_makes_good_the_desired_speed_along_the_current(off_de
     assert made_good_west == pytest.approx(along_mps)
 
 
-def test_keeper_upstream_of_its_point_below_the_creep_idles_down_instead_of_ferrying_across() -> None:
+def test_keeper_upstream_of_its_point_caps_its_surge_to_come_down_instead_of_ferrying_across() -> None:
     """2.5 m upstream and 4 m across from its point in 0.5 m/s the desired water velocity points
-    downstream, past the 70 deg clamp: with the cap the keeper asks no surge (idle: the bow 70 deg
-    off upstream makes way downstream); without it the projection of v_g on the clamped heading
-    asks for speed, whose upstream component cancels the current."""
+    downstream, past the 70 deg clamp: the projection of v_g on the clamped heading asks for speed
+    (whose upstream component would cancel the current), the cap for none (idle: the bow 70 deg off
+    upstream makes way downstream).  Not clamped (downstream of the point), no cap."""
     current = (-0.5, 0.0)  # toward south
-    pos = (2.5, 4.0)  # upstream, and east of the point
-    capped = CurrentStationKeeper((0.0, 0.0), 0.0, CurrentStationGains(ki_per_s2=0.0, cap_clamped_surge=True))
-    plain = CurrentStationKeeper((0.0, 0.0), 0.0, CurrentStationGains(ki_per_s2=0.0))
-    out, ref = capped.update(pos, current, 0.1), plain.update(pos, current, 0.1)
-    assert out.heading_rad == pytest.approx(ref.heading_rad)
+    keeper = CurrentStationKeeper((0.0, 0.0), 0.0, CurrentStationGains(ki_per_s2=0.0))
+    out = keeper.update((2.5, 4.0), current, 0.1)  # upstream, and east of the point
     assert math.degrees(abs(math.remainder(out.heading_rad, 2 * math.pi))) == pytest.approx(70.0)
-    assert out.surge_speed_mps <= 0.0 < ref.surge_speed_mps
+    assert out.surge_cap_mps <= 0.0 < out.surge_speed_mps
+    assert keeper.update((-2.5, 1.0), current, 0.1).surge_cap_mps == math.inf
 
 
 @pytest.mark.parametrize("current", [(0.0, 0.0), (0.5, 0.0), (0.0, -0.5), (0.3, 0.4)])
