@@ -78,6 +78,11 @@ class HoldOutput:
     turn_rate_radps: float
     distance_m: float
     radial_error_m: float = 0.0
+    surge_cap_mps: float = math.inf
+    """With the bow clamped off upstream (the station keeper: the desired water velocity points
+    farther off than ``max_off_upstream_rad``), the largest surge at which the boat still makes
+    good the desired velocity's component along the current (:func:`clamped_surge_cap_mps`); the
+    caller decides whether to apply it."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -116,15 +121,39 @@ class CurrentStationKeeper:
             self.residual_ne = [r * g.residual_max_mps / rmag for r in self.residual_ne]
         wn = vn - current_ne_mps[0] + self.residual_ne[0]
         we = ve - current_ne_mps[1] + self.residual_ne[1]
+        clamped = False
         if math.hypot(wn, we) >= g.min_speed_mps:
             heading = math.atan2(we, wn)
             if math.hypot(*current_ne_mps) > 0.0:
                 upstream = math.atan2(-current_ne_mps[1], -current_ne_mps[0])
                 off = wrap_pi(heading - upstream)
+                clamped = abs(off) > g.max_off_upstream_rad
                 heading = upstream + max(-g.max_off_upstream_rad, min(g.max_off_upstream_rad, off))
             self.heading_rad = wrap_2pi(heading)
         surge = vn * math.cos(self.heading_rad) + ve * math.sin(self.heading_rad)
-        return HoldOutput(self.heading_rad, surge, 0.0, math.hypot(en, ee))
+        cap = clamped_surge_cap_mps(self.heading_rad, (vn, ve), current_ne_mps) if clamped else math.inf
+        return HoldOutput(self.heading_rad, surge, 0.0, math.hypot(en, ee), surge_cap_mps=cap)
+
+
+def clamped_surge_cap_mps(heading_rad: float, v_g_ne: tuple[float, float],
+                          current_ne_mps: tuple[float, float]) -> float:
+    """Largest surge over ground on ``heading_rad`` (``off`` from upstream) at which the boat still
+    makes good ``v_g``'s component ``a`` upstream (negative: downstream) through the current ``c``.
+    Through the water at ``U_w`` the boat makes ``U_w cos(off) - |c|`` upstream, so
+    ``U_w <= (|c| + a) / cos(off)``; the surge over ground is ``u = U_w - |c| cos(off)``::
+
+        u_max = (|c| + a) / cos(off) - |c| cos(off)
+
+    (negative: the surge controller idles)."""
+    c = math.hypot(*current_ne_mps)
+    if c <= 0.0:
+        return math.inf
+    up_n, up_e = -current_ne_mps[0] / c, -current_ne_mps[1] / c
+    cos_off = up_n * math.cos(heading_rad) + up_e * math.sin(heading_rad)
+    if cos_off <= 0.05:
+        return math.inf
+    a = v_g_ne[0] * up_n + v_g_ne[1] * up_e
+    return (c + a) / cos_off - c * cos_off
 
 
 @dataclass(frozen=True, slots=True)

@@ -222,7 +222,7 @@ class CircleTask:
             if not self.stem.lost:
                 return target
             retry = self.on_circle_since_s is None and not self._hold_retried
-            log.warning("circle item: the hold crept %.1f m off its point on the circle (%s); %s",
+            log.warning("circle item: the hold given up %.1f m from its point on the circle (%s); %s",
                         math.dist(pos, self.stem.hold_ne),
                         "after reaching it" if self.stem.on_hold else "never there",
                         "again from here" if retry else "circling")

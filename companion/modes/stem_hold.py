@@ -5,6 +5,7 @@ station keeper (:class:`~companion.guidance.holding.CurrentStationKeeper`) onto 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 from companion.control.target import ControlTarget
 from companion.guidance.geo import wrap_2pi, wrap_pi
@@ -35,13 +36,32 @@ CREEP_HANDOVER_M = 5.0
 """Below the idle creep a boat coming from farther downstream than this hands over from the leg to
 the keeper this far from the abeam point (arriving there heading upstream at the leg speed it ran
 on 5-7 m upstream and came back across the hold point diagonally)."""
+CREEP_KEEPER_KI_PER_S2 = 0.0
+"""Below the idle creep the keeper runs without its integral (``CurrentStationGains.ki_per_s2``):
+the boat cannot stand still, so there is no steady error for it to learn, and it wound up on the
+ferry from the abeam point instead (0.5 m/s, as large as the current, 3.5 s after the handover on
+usv bench nav's 0.5 m/s tuning cell), pushing the boat metres past its point across the current
+and back (docs/tuning.md)."""
+CREEP_CAP_WITHIN_RAD = math.radians(30.0)
+"""Below the idle creep, with the keeper's bow clamped off upstream and the boat's bow within this
+of it, the surge is capped so the boat makes good the desired velocity's component along the
+current (:attr:`~companion.guidance.holding.HoldOutput.surge_cap_mps`; idle, in practice).
+Upstream of its point the projection of the desired velocity on the clamped heading asked
+1-1.35 m/s, whose upstream component cancelled the current: the boat ferried across the current
+2-4 m upstream of its point for a minute (usv bench nav's 0.5 m/s tuning cell).  Not while the
+bow is farther off: idling then, the jet barely turned and the boat drifted 7 m upstream (flood,
+first point)."""
 CREEP_ON_HOLD_M = 1.0
 CREEP_LOST_M = 4.0
 """Below the idle creep a hold that has reached its point (within CREEP_ON_HOLD_M) and then crept
 this far off it is given up for circling (the boat cannot stop: it crept upstream 60 m in 0.3 m/s,
 looping, and the bottle never filled) ..."""
 CREEP_RUNAWAY_M = 20.0
-"""... and one that has never reached it, this far off."""
+"""... and one that has never reached it, this far off ..."""
+CREEP_REACH_S = 60.0
+"""... or this long after the keeper took over (without its integral the keeper can leave the boat
+at idle where creep, current and wind cancel: on the flood's tuning seeds 22/23 a retried first
+hold sat there 475 s and 900+ s and the bottle never filled)."""
 
 
 class StemHold:
@@ -70,8 +90,13 @@ class StemHold:
         self._leg = 0
         self._set_leg(pos_ne)
         self.current_ne_mps = current_ne_mps
-        self.keeper = CurrentStationKeeper(self.hold_ne, heading_rad, current_station_gains(params))
+        gains = current_station_gains(params)
+        if self.below_creep:
+            gains = replace(gains, ki_per_s2=CREEP_KEEPER_KI_PER_S2)
+        self.keeper = CurrentStationKeeper(self.hold_ne, heading_rad, gains)
         self.holding = False
+        self.keeper_s = 0.0
+        """Seconds since the keeper took over from the legs."""
         self.on_hold = False
         """The boat has been within :data:`CREEP_ON_HOLD_M` of the hold point."""
         self.lost = False
@@ -108,12 +133,16 @@ class StemHold:
                                         nav.course_over_ground_rad).target
             self.holding = True
         off_m = math.dist(pos_ne, self.hold_ne)
+        self.keeper_s += dt_s
         self.on_hold = self.on_hold or off_m < CREEP_ON_HOLD_M
-        if self.below_creep and (off_m > (CREEP_LOST_M if self.on_hold else CREEP_RUNAWAY_M)):
+        if self.below_creep and (off_m > (CREEP_LOST_M if self.on_hold else CREEP_RUNAWAY_M)
+                                 or (not self.on_hold and self.keeper_s > CREEP_REACH_S)):
             self.lost = True
         out = self.keeper.update(pos_ne, self.current_ne_mps, dt_s)
         speed, heading = out.surge_speed_mps, out.heading_rad
         err = wrap_pi(out.heading_rad - nav.heading_rad)
+        if self.below_creep and abs(err) < CREEP_CAP_WITHIN_RAD:
+            speed = min(speed, out.surge_cap_mps)
         if abs(err) > STEM_POWERED_TURN_RAD and not self.below_creep:
             speed = max(speed, self.legs.cfg.turn_speed_mps)  # turn under power, not at idle
         # a turn of about 180 deg keeps the direction it started in (near +-pi the sign of the

@@ -202,6 +202,51 @@ def test_circle_item_below_the_idle_creep_holds_only_when_enabled_and_circles_wh
     assert far.stem is not None and far.stem is not first and not far.circling  # flown once more
 
 
+def test_hold_below_the_creep_does_not_wind_up_on_the_ferry_to_its_point() -> None:
+    """Below the idle creep the keeper has no integral: 4 m off its point for 10 s (the ferry from
+    the abeam point) it asks the same heading as at the start; above the creep the integral still
+    learns what the estimate misses."""
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    for current, winds_up in (((0.0, 0.5), False), ((0.0, 1.2), True)):
+        obs = CurrentObserver()
+        _run(obs, 0.0, 4.0, current, 30.0)
+        _run(obs, math.pi / 2, 4.0, current, 30.0)
+        task = CircleTask(_creep_params(0.4), point, 2.0, drift=obs)
+        task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+        stem = task.stem
+        assert stem is not None and stem.below_creep is not winds_up
+        stem.holding = True
+        off = _nav(frame, stem.hold_ne[0] - 3.0, stem.hold_ne[1] + 3.0, 0.0, -0.2)
+        first = task.step(off, 0.1).course_rad
+        for _ in range(100):
+            last = task.step(off, 0.1).course_rad
+        turned_deg = math.degrees(abs(math.remainder(last - first, 2 * math.pi)))
+        assert turned_deg > 2.0 if winds_up else turned_deg < 0.1
+
+
+def test_hold_below_the_creep_that_never_reaches_its_point_is_given_up_after_a_minute() -> None:
+    """A boat stalled 3 m from its hold point (creep, current and wind cancelling at idle) is
+    neither on the hold nor 20 m off: after 60 s of the keeper the hold is flown once more, then
+    the item circles instead of waiting for ever."""
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    task = CircleTask(_creep_params(0.4), point, 2.0, water_current=lambda: (0.0, 0.5))
+    task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    for _attempt in range(2):
+        stem = task.stem
+        assert stem is not None and stem.below_creep and not task.circling
+        stem.holding = True  # as if the legs were done
+        stalled = _nav(frame, stem.hold_ne[0] - 3.0, stem.hold_ne[1], 0.0, 0.0)
+        for _ in range(590):
+            task.step(stalled, 0.1)
+        assert task.stem is stem  # 59 s: still trying
+        for _ in range(20):
+            task.step(stalled, 0.1)
+        assert task.stem is not stem
+    assert task.stem is None and task.circling
+
+
 @pytest.mark.parametrize(("heading_deg", "inside", "sign"), [(180.0, 1.0, -1.0), (180.0, -1.0, 1.0),
                                                              (170.0, 1.0, -1.0), (190.0, -1.0, 1.0)])
 def test_u_turn_onto_a_leg_turns_toward_the_inside_of_the_route(heading_deg: float, inside: float,

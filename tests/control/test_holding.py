@@ -8,10 +8,12 @@ import math
 import pytest
 
 from companion.guidance.holding import (
+    CurrentStationGains,
     CurrentStationKeeper,
     DriftOrbit,
     HoldStrategy,
     OrbitGains,
+    clamped_surge_cap_mps,
     orbit_clockwise,
     pick_strategy,
 )
@@ -40,6 +42,31 @@ def test_station_keeper_stems_the_current_at_once_and_backs_down_onto_the_point(
     for pos in [(10.0, 0.0), (-10.0, 0.0), (0.0, 10.0), (3.0, 3.0)]:
         out = keeper.update(pos, (0.0, 1.2), 0.01)
         assert abs((math.degrees(out.heading_rad) - 270.0 + 180.0) % 360.0 - 180.0) <= 70.0 + 1e-9
+
+
+@pytest.mark.parametrize("off_deg", [-70.0, -40.0, 20.0, 70.0])
+@pytest.mark.parametrize("along_mps", [-0.4, -0.1, 0.2])
+def test_clamped_surge_cap_makes_good_the_desired_speed_along_the_current(off_deg: float,
+                                                                          along_mps: float) -> None:
+    current = (0.0, 0.5)  # toward east: upstream is west (270 deg)
+    heading = math.radians(270.0 + off_deg)
+    u = clamped_surge_cap_mps(heading, (0.3, -along_mps), current)  # v_g: 0.3 north, along_mps west
+    water_mps = u - (current[0] * math.cos(heading) + current[1] * math.sin(heading))
+    made_good_west = -(water_mps * math.sin(heading) + current[1])
+    assert made_good_west == pytest.approx(along_mps)
+
+
+def test_keeper_upstream_of_its_point_caps_its_surge_to_come_down_instead_of_ferrying_across() -> None:
+    """2.5 m upstream and 4 m across from its point in 0.5 m/s the desired water velocity points
+    downstream, past the 70 deg clamp: the projection of v_g on the clamped heading asks for speed
+    (whose upstream component would cancel the current), the cap for none (idle: the bow 70 deg off
+    upstream makes way downstream).  Not clamped (downstream of the point), no cap."""
+    current = (-0.5, 0.0)  # toward south
+    keeper = CurrentStationKeeper((0.0, 0.0), 0.0, CurrentStationGains(ki_per_s2=0.0))
+    out = keeper.update((2.5, 4.0), current, 0.1)  # upstream, and east of the point
+    assert math.degrees(abs(math.remainder(out.heading_rad, 2 * math.pi))) == pytest.approx(70.0)
+    assert out.surge_cap_mps <= 0.0 < out.surge_speed_mps
+    assert keeper.update((-2.5, 1.0), current, 0.1).surge_cap_mps == math.inf
 
 
 @pytest.mark.parametrize("current", [(0.0, 0.0), (0.5, 0.0), (0.0, -0.5), (0.3, 0.4)])
