@@ -18,6 +18,7 @@ from companion.messages import ModeNumber, NavState, Severity
 from companion.mission.items import MissionItem
 from companion.modes.auto_items import BUILT_IN_ACTIONS, UNSUPPORTED, AutoRun, ItemTask, MissionAction, Phase
 from companion.modes.base import ModeOutput, StandardMode
+from companion.modes.holding import OrbitTask
 from companion.modes.host import ModeHost
 from companion.modes.navigation import NavMode, param
 
@@ -64,8 +65,9 @@ class AutoMode(NavMode):
         nav = host.nav()
         assert nav is not None
         # no crab estimate carried in from an earlier AUTO run
+        orbit = self.handed_over if isinstance(self.handed_over, OrbitTask) else None
         self.run = AutoRun(host, self.actions(host), speed_override_mps=host.speed_override_mps,
-                           last_point=(nav.lat_deg, nav.lon_deg), drift=self.drift)
+                           last_point=(nav.lat_deg, nav.lon_deg), drift=self.drift, hold_orbit=orbit)
         self._start(self.run, nav, host.mission.current_seq)
 
     def exit(self, host: ModeHost) -> None:
