@@ -9,7 +9,9 @@ immediate items run at once and the next one starts in the same sample (at most
 stepped every sample until done, MISSION_SET_CURRENT from the operator restarts at that item.
 Items are validated at upload (:mod:`companion.mission.validate`), so a bad coordinate never
 reaches this mode.  After the last item the mission is COMPLETE and the boat goes to HOLD or
-LOITER according to MIS_DONE_BEHAVE.
+LOITER according to MIS_DONE_BEHAVE.  Entered on the hold orbit of RTL, LOITER or GUIDED (handed
+over by the mode manager), AUTO keeps that orbit until the bow points along the first leg
+(``USV_WP_JOIN``, :mod:`companion.modes.orbit_join`); from rest or a straight run it goes at once.
 """
 
 from __future__ import annotations

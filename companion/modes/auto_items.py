@@ -15,7 +15,9 @@ its :class:`~companion.mission.items.MissionItem`:
 * :meth:`ItemTask.step` runs once per navigation sample and returns True when the item is done.
 
 Navigation items (:class:`NavItem`) first go to their point along a leg (ILOS/ALOS,
-:class:`~companion.modes.navigation.GotoTask`, phase GOTO), then do what they do there.
+:class:`~companion.modes.navigation.GotoTask`, phase GOTO), then do what they do there.  The
+first leg of a run entered on a hold orbit may wait on that orbit first (phase JOIN,
+:class:`~companion.modes.orbit_join.OrbitJoin`) and then starts where the boat leaves it.
 """
 
 from __future__ import annotations
