@@ -171,7 +171,7 @@ class NavItem(ItemTask):
         tolerance_rad = math.radians(params.get_or("USV_WP_JOIN", 0.0))
         if orbit is not None and tolerance_rad > 0.0:
             join = OrbitJoin(orbit, target, tolerance_rad)
-            if not join.aligned(nav):
+            if join.worth_waiting(nav) and not join.aligned(nav):
                 off_deg = math.degrees(abs(join.to_go_rad(nav)))
                 run.host.status(f"AUTO: orbiting until the bow points along the first leg "
                                 f"({off_deg:.0f} deg off)")

@@ -33,6 +33,9 @@ PAST_RAD = math.radians(20.0)
 FULL_ORBIT_RAD = 2.0 * math.pi
 """The join gives up waiting after the bow has turned this far."""
 COURSE_MIN_SPEED_MPS = 0.3
+MIN_LEG_RADII = 5.0
+"""A first waypoint closer than this many orbit radii is gone to at once (from inside or near the
+orbit the bearing to it swings round with the boat and may never line up with the course)."""
 """Below this speed over ground the heading stands in for the (noisy) course."""
 
 
@@ -55,6 +58,12 @@ class OrbitJoin:
         self.distance_m = math.inf
         self.cross_track_m = 0.0
         self._last_heading_rad: float | None = None
+
+    def worth_waiting(self, nav: NavState) -> bool:
+        """Whether the leg's end is far enough for a wait on the orbit (:data:`MIN_LEG_RADII`)."""
+        here = self.frame.to_ne(nav.lat_deg, nav.lon_deg)
+        end = self.frame.to_ne(*self.point)
+        return math.hypot(end[0] - here[0], end[1] - here[1]) > MIN_LEG_RADII * self.orbit.radius_m
 
     def to_go_rad(self, nav: NavState) -> float:
         """The turn (rad, the orbit's way) from the course to the bearing of the leg's end."""

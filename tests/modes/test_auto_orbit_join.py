@@ -162,6 +162,17 @@ def test_auto_on_the_orbit_already_pointing_along_the_leg_starts_at_once() -> No
     assert not any("orbiting until" in t for t in rig.texts)
 
 
+def test_auto_on_the_orbit_with_the_first_waypoint_beside_it_starts_at_once() -> None:
+    """A first waypoint at the orbit's centre would never line up with the course: no wait."""
+    rig = OrbitRig()
+    home_wp = MissionItem.at(1, mi.CMD_NAV_WAYPOINT, HOME_LAT_DEG, HOME_LON_DEG)
+    rig.vehicle.missions.replace(MissionType.MISSION, [MissionItem.home(HOME_LAT_DEG, HOME_LON_DEG), home_wp])
+    rig.hold_home_on_the_orbit()
+    rig.place_for(90.0)
+    assert rig.vehicle.set_mode(ModeNumber.AUTO) is None
+    assert rig.auto.phase is Phase.GOTO
+
+
 def test_auto_from_rest_starts_the_leg_at_once() -> None:
     rig = OrbitRig()
     for _ in range(5):
