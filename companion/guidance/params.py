@@ -45,7 +45,7 @@ PARAMS: tuple[ParamDef, ...] = (
              "U-turn onto a leg (heading more than 135 deg off it, e.g. AUTO started with the bow into the "
              "current): 1 = turn toward the inside of the route (the next corner's side), 0 = whichever way "
              "the heading error's sign says.", is_int=True, choices=((0, "shorter way"), (1, "inside"))),
-    ParamDef("USV_WP_JOIN", 40.0, 0.0, 90.0, "deg",
+    ParamDef("USV_WP_JOIN", 70.0, 0.0, 90.0, "deg",
              "AUTO entered while the boat orbits a hold point (RTL, LOITER or GUIDED in a current weaker "
              "than USV_HOLD_CREEP): keep orbiting until the course is within this of the first leg "
              "(turning toward it), at most one orbit, then start the leg from there, as an aircraft "

@@ -28,9 +28,9 @@ async def test_auto_from_rtls_orbit_heading_away_keeps_it_until_the_bow_points_a
     """0.4 m/s current toward east (weaker than the jet's idle creep): RTL orbits home.  AUTO is
     entered when the orbit's course points away from the northbound first leg (a U-turn).  It keeps
     circling home for about half an orbit, then runs up the leg from where it left the orbit.
-    Measured: 4.3 s on the orbit, at most 3.1 m from home, then within 0.71 m of the leg's line
-    for 15 s; with ``USV_WP_JOIN`` 0 (the turn at once) 4.2 m from the leg's line (90 deg off: 1.9 s,
-    0.68 m; at once 2.3 m)."""
+    Measured (``USV_WP_JOIN`` 70 deg): 3.5 s on the orbit, at most 3.1 m from home, then within
+    1.18 m of the leg's line for 15 s (40 deg: 4.3 s, 0.71 m); with ``USV_WP_JOIN`` 0 (the turn at
+    once) 4.2 m from the leg's line."""
     off_deg = 180.0
     async with SitlHarness(seed=3, current="0.4,90", full_stack=True) as h:
         await h.run_for(2.0)
