@@ -45,7 +45,8 @@ MISSED_TODAY = {
                                "wip/firstleg (AUTO keeps RTL's orbit until the bow points along the "
                                "first leg, USV_WP_JOIN 70 deg): 0.5 m/s cell 1.28-1.76 m in six flights "
                                "of reporting seeds 101-103 (40 deg: 1.29-2.16 m, the orbit's far side "
-                               "while AUTO waits); 1.2 m/s cell 3.02 m at the corners (no orbit there)",
+                               "while AUTO waits), quick bench 1.36 m; 1.2 m/s cell 3.02-3.65 m at the "
+                               "corners (no orbit there)",
     "square_mid_leg_rms_m": NOW + "0.37-0.62 m; 0.98 m; 0.40 m (main: 0.45-0.46 m [0.76 m]): the bow swings "
                                   "+-25 deg in beam seas on the legs across a 1.2 m/s current",
     "square_mid_leg_max_m": NOW + "1.0-1.6 m; 3.3 m, the first corner; 1.14 m (main: 1.2-1.3 m [4.2 m])",
