@@ -13,7 +13,8 @@ points along the leg, then starts the leg from where the boat is::
     join when  -PAST_RAD <= to_go <= USV_WP_JOIN     or the bow has turned a full orbit
 
 ``to_go`` is the turn still to come the orbit's way; the join happens while the boat is still
-turning toward the leg (the leg's LOS takes the last degrees with the same turn direction), and
+turning toward the leg (the leg's LOS finishes the turn the same way: with the default 70 deg the
+boat leaves before the orbit's far side, 1.9-2.3 m from the point in a 0.5 m/s current), and
 after at most one orbit (about 12 s at ``USV_HOLD_ORB_SPD`` 1 m/s on ``USV_TURN_RAD`` 2 m) it
 joins wherever it is.  AUTO entered from rest or from a straight run starts at once, as
 ArduRover's does: only a hold orbit handed over by the previous mode is continued.
