@@ -19,6 +19,11 @@ Definitions (the issue's, made precise where it is silent):
   first leg starts where AUTO was entered, as the vehicle plans it; then the square's sides), from
   AUTO to mission complete; mid-leg cross-track: distance from the active leg's line while the boat
   is 10 m or more from both of its ends (the rig bench's definition), RMS and max over all legs.
+  When AUTO first kept orbiting its hold point (``USV_WP_JOIN``; the vehicle's STATUSTEXT "AUTO:
+  leaving the orbit onto the first leg" ends the wait), the first leg starts where the boat left
+  the orbit, again as the vehicle plans it; ``side_max_m`` still counts the orbiting (from AUTO's
+  start), ``side_max_after_join_m`` only the legs, ``join_s`` is how long AUTO orbited.
+  ``first_15s_max_m``: the largest distance from the path in the first 15 s of AUTO.
 * sampling circle: from the first time the boat comes within radius + 0.5 m of an item's point
   (the vehicle's own "on the circle" rule) until the item is reached, ``| distance - radius |``
   (the chapter's Fig. 13 tracking error), max and RMS; radius = max(USV_SMPL_CIRC_M, USV_TURN_RAD)
@@ -40,6 +45,10 @@ import numpy as np
 from companion.guidance.geo import LocalFrame
 
 MID_LEG_MARGIN_M = 10.0
+FIRST_LEG_WINDOW_S = 15.0
+"""The start of the square: the largest distance from the path in this long after AUTO starts."""
+LEAVING_ORBIT_TEXT = "AUTO: leaving the orbit onto the first leg"
+"""The vehicle's STATUSTEXT when the first leg starts after AUTO kept orbiting (``USV_WP_JOIN``)."""
 ON_CIRCLE_MARGIN_M = 0.5
 MODE_LOITER, MODE_AUTO, MODE_RTL = 5, 10, 11
 
@@ -142,14 +151,20 @@ def path_distance(pts: np.ndarray, path: list[tuple[float, float]]) -> np.ndarra
 
 
 def square(truth: Truth, t0: float, t1: float, corners: list[tuple[float, float]],
-           reached: dict[int, float]) -> dict[str, Any]:
-    start = truth.at(t0)
-    path = [start, *corners]
-    idx = truth.window(t0, t1)
-    pts = np.stack([truth.n[idx], truth.e[idx]], axis=1)
-    side = path_distance(pts, path)
+           reached: dict[int, float], leg_start_s: float | None = None) -> dict[str, Any]:
+    """``leg_start_s``: when the first leg started, if AUTO first kept orbiting its hold point
+    (the vehicle's STATUSTEXT); the first leg then starts where the boat was at that moment."""
+    joined = t0 if leg_start_s is None else leg_start_s
+    path = [truth.at(joined), *corners]
+
+    def side_distance(t_from: float, t_to: float) -> tuple[np.ndarray, np.ndarray]:
+        idx = truth.window(t_from, t_to)
+        pts = np.stack([truth.n[idx], truth.e[idx]], axis=1)
+        return path_distance(pts, path), pts
+
+    side, pts = side_distance(t0, t1)
     mid: list[np.ndarray] = []
-    leg_start = t0
+    leg_start = joined
     for k in range(1, len(corners) + 1):
         leg_end = reached.get(k, t1)
         sel = truth.window(leg_start, leg_end)
@@ -161,6 +176,8 @@ def square(truth: Truth, t0: float, t1: float, corners: list[tuple[float, float]
     mids = np.concatenate(mid) if mid else np.array([])
     worst = int(np.argmax(side))
     return {"side_max_m": _r(side.max()), "side_max_at_ne": [_r(pts[worst, 0]), _r(pts[worst, 1])],
+            "first_15s_max_m": _r(side_distance(t0, t0 + FIRST_LEG_WINDOW_S)[0].max()),
+            "join_s": _r(joined - t0), "side_max_after_join_m": _r(side_distance(joined, t1)[0].max()),
             "mid_leg_rms_m": _r(_rms(mids)), "mid_leg_max_m": _r(mids.max()) if mids.size else math.nan,
             "legs_completed": len(reached), "duration_s": _r(t1 - t0)}
 
@@ -228,12 +245,14 @@ def figures(flight: dict[str, Any]) -> dict[str, Any]:
     loiter_s = min(120.0, t_rtl - t_loiter)
     radius = max(float(params["USV_SMPL_CIRC_M"]), float(params["USV_TURN_RAD"]))
     reported = [e[2] for e in flight["events"] if e[1] == "sample_reported"]
+    leg_start_s = next((float(t) for t, kind, text in flight["events"] if kind == "statustext"
+                        and t >= t_square and str(text).startswith(LEAVING_ORBIT_TEXT)), None)
     return {
         "goto_arrival": arrival(truth, t_goto, t_loiter, tuple(plan["goto_ne"]), wp_radius),
         "loiter": loiter(truth, t_loiter, loiter_s),
         "rtl_arrival": arrival(truth, t_rtl, t_square, (0.0, 0.0), wp_radius),
         "square": square(truth, t_square, t_samples, [tuple(c) for c in plan["square_ne"]],
-                         {k: t for k, t in reached.items() if k <= n_corners}),
+                         {k: t for k, t in reached.items() if k <= n_corners}, leg_start_s),
         "sampling": sampling(truth, t_samples, t_end, [tuple(p) for p in plan["sample_points_ne"]],
                              {k - n_corners: t for k, t in reached.items() if k > n_corners}, radius,
                              reported),

@@ -41,7 +41,12 @@ MISSED_TODAY = {
                                "RTL's orbit). " + LOITER + "0.5 m/s cell 1.3-5.4 m in four flights, set "
                                "by the heading RTL's orbit has when AUTO starts (14 flights: 0.7-1.6 m "
                                "within 26 deg of the first leg, 5.4-5.9 m at 90 deg, 5.2-10.0 m for a "
-                               "U-turn); 1.2 m/s cell 2.3 (main) / 2.7-3.7 m at the corners",
+                               "U-turn); 1.2 m/s cell 2.3 (main) / 2.7-3.7 m at the corners. "
+                               "wip/firstleg (AUTO keeps RTL's orbit until the bow points along the "
+                               "first leg, USV_WP_JOIN 70 deg): 0.5 m/s cell 1.28-1.76 m in six flights "
+                               "of reporting seeds 101-103 (40 deg: 1.29-2.16 m, the orbit's far side "
+                               "while AUTO waits), quick bench 1.36 m; 1.2 m/s cell 3.02-3.65 m at the "
+                               "corners (no orbit there)",
     "square_mid_leg_rms_m": NOW + "0.37-0.62 m; 0.98 m; 0.40 m (main: 0.45-0.46 m [0.76 m]): the bow swings "
                                   "+-25 deg in beam seas on the legs across a 1.2 m/s current",
     "square_mid_leg_max_m": NOW + "1.0-1.6 m; 3.3 m, the first corner; 1.14 m (main: 1.2-1.3 m [4.2 m])",

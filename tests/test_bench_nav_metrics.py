@@ -71,6 +71,26 @@ def test_square_side_distance_and_mid_leg_cross_track(tmp_path: Path) -> None:
     assert fig["mid_leg_rms_m"] < 0.3 and fig["legs_completed"] == 4
 
 
+def test_square_entered_on_an_orbit_counts_the_wait_and_the_leg_from_where_it_joined(tmp_path: Path) -> None:
+    corners = [(50.0, 0.0), (50.0, 50.0), (0.0, 50.0), (0.0, 0.0)]
+    # AUTO entered on a 2 m orbit round home at its east point heading south; half an orbit
+    # clockwise (bearing 90 -> 270 deg: south, then west) to the west point, heading north; the
+    # first leg from there, drifting to 0.5 m west of its line at the corner
+    arc = [(2.0 * math.cos(a), 2.0 * math.sin(a)) for a in np.linspace(0.5 * math.pi, 1.5 * math.pi, 200)]
+    track = arc[:-1] + line((0.0, -2.0), (50.0, -0.5), 400) + line((50.0, 0.0), (50.0, 50.0), 200)
+    t_join = 199 * STEP_S
+    reached = {1: (199 + 400) * STEP_S, 2: (199 + 600) * STEP_S}
+    fig = square(truth(tmp_path, track), 0.0, (199 + 600) * STEP_S, corners, reached, leg_start_s=t_join)
+    assert fig["join_s"] == pytest.approx(t_join)
+    assert fig["side_max_m"] == pytest.approx(2.0, abs=0.02)  # the orbit's far side, 2 m from home
+    assert fig["first_15s_max_m"] == pytest.approx(2.0, abs=0.02)
+    assert fig["side_max_after_join_m"] == pytest.approx(0.5, abs=0.02)  # at the first corner
+    assert fig["mid_leg_max_m"] == pytest.approx(0.4, abs=0.02)  # 40 m along the leg from the join
+    plain = square(truth(tmp_path, track), 0.0, (199 + 600) * STEP_S, corners, reached)  # from the entry
+    assert plain["join_s"] == 0.0 and plain["side_max_after_join_m"] == plain["side_max_m"]
+    assert plain["side_max_m"] > 3.5  # the leg from the join runs 4 m beside the one from the entry
+
+
 def test_sampling_circle_error_and_each_samples_distance(tmp_path: Path) -> None:
     point = (20.0, 0.0)
     approach = line((0.0, 0.0), (17.7, 0.0), 100)  # to 2.3 m short of the point

@@ -9,7 +9,9 @@ immediate items run at once and the next one starts in the same sample (at most
 stepped every sample until done, MISSION_SET_CURRENT from the operator restarts at that item.
 Items are validated at upload (:mod:`companion.mission.validate`), so a bad coordinate never
 reaches this mode.  After the last item the mission is COMPLETE and the boat goes to HOLD or
-LOITER according to MIS_DONE_BEHAVE.
+LOITER according to MIS_DONE_BEHAVE.  Entered on the hold orbit of RTL, LOITER or GUIDED (handed
+over by the mode manager), AUTO keeps that orbit until the bow points along the first leg
+(``USV_WP_JOIN``, :mod:`companion.modes.orbit_join`); from rest or a straight run it goes at once.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from companion.messages import ModeNumber, NavState, Severity
 from companion.mission.items import MissionItem
 from companion.modes.auto_items import BUILT_IN_ACTIONS, UNSUPPORTED, AutoRun, ItemTask, MissionAction, Phase
 from companion.modes.base import ModeOutput, StandardMode
+from companion.modes.holding import OrbitTask
 from companion.modes.host import ModeHost
 from companion.modes.navigation import NavMode, param
 
@@ -64,8 +67,9 @@ class AutoMode(NavMode):
         nav = host.nav()
         assert nav is not None
         # no crab estimate carried in from an earlier AUTO run
+        orbit = self.handed_over if isinstance(self.handed_over, OrbitTask) else None
         self.run = AutoRun(host, self.actions(host), speed_override_mps=host.speed_override_mps,
-                           last_point=(nav.lat_deg, nav.lon_deg), drift=self.drift)
+                           last_point=(nav.lat_deg, nav.lon_deg), drift=self.drift, hold_orbit=orbit)
         self._start(self.run, nav, host.mission.current_seq)
 
     def exit(self, host: ModeHost) -> None:

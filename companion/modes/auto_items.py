@@ -15,7 +15,9 @@ its :class:`~companion.mission.items.MissionItem`:
 * :meth:`ItemTask.step` runs once per navigation sample and returns True when the item is done.
 
 Navigation items (:class:`NavItem`) first go to their point along a leg (ILOS/ALOS,
-:class:`~companion.modes.navigation.GotoTask`, phase GOTO), then do what they do there.
+:class:`~companion.modes.navigation.GotoTask`, phase GOTO), then do what they do there.  The
+first leg of a run entered on a hold orbit may wait on that orbit first (phase JOIN,
+:class:`~companion.modes.orbit_join.OrbitJoin`) and then starts where the boat leaves it.
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ from companion.messages import NavState, Severity
 from companion.mission import items as mi
 from companion.mission.items import MissionItem
 from companion.mission.validate import ItemCheck
+from companion.modes.holding import OrbitTask
 from companion.modes.host import ModeHost
 from companion.modes.navigation import (
     CircleTask,
@@ -39,6 +42,7 @@ from companion.modes.navigation import (
     estimator_current,
     wp_speed_mps,
 )
+from companion.modes.orbit_join import OrbitJoin
 
 LEG_RESTART_M = 50.0
 """Knocked farther than this off the old leg's end, the next leg starts where the boat is."""
@@ -52,6 +56,8 @@ class Phase(enum.Enum):
     """Where the current item is."""
 
     START = "start"
+    JOIN = "join"
+    """Still on the hold orbit AUTO was entered on, until the bow points along the first leg."""
     GOTO = "goto"
     """Following the leg to the item's point."""
     LOITER = "loiter"
@@ -82,6 +88,9 @@ class AutoRun:
     jumps_done: dict[int, int] = field(default_factory=dict)
     drift: CurrentObserver | None = None
     """The vehicle's current observer (crab feed-forward of legs and circles)."""
+    hold_orbit: OrbitTask | None = None
+    """The hold orbit AUTO was entered on (RTL/LOITER/GUIDED in a weak current), until the first leg
+    starts: the first leg is joined from it (:mod:`companion.modes.orbit_join`)."""
 
     def navigates(self, command: int) -> bool:
         action = self.actions.get(command)
@@ -143,15 +152,31 @@ class NavItem(ItemTask):
     circles = False
     """Approached by the circle law: taken over :data:`CIRCLE_TAKEOVER_M` out."""
 
+    def __init__(self, run: AutoRun, item: MissionItem) -> None:
+        super().__init__(run, item)
+        self._leg: tuple[tuple[float, float], float | None, tuple[float, float] | None] | None = None
+        """The leg waiting for the join from the hold orbit (target, acceptance radius, next point)."""
+
     def start(self, nav: NavState) -> int | None:
         self.goto(nav, (self.item.lat_deg, self.item.lon_deg))
         return None
 
     def goto(self, nav: NavState, target: tuple[float, float], accept_radius_m: float | None = None,
              next_point: tuple[float, float] | None = None) -> None:
-        """Follow the leg from where the last item ended (or from here) to ``target``."""
+        """Follow the leg from where the last item ended (or from here) to ``target``; AUTO's first
+        leg entered on a hold orbit far off the leg's bearing first joins it from the orbit."""
         run = self.run
         params = run.host.params
+        orbit, run.hold_orbit = run.hold_orbit, None
+        tolerance_rad = math.radians(params.get_or("USV_WP_JOIN", 0.0))
+        if orbit is not None and tolerance_rad > 0.0:
+            join = OrbitJoin(orbit, target, tolerance_rad)
+            if join.worth_waiting(nav) and not join.aligned(nav):
+                off_deg = math.degrees(abs(join.to_go_rad(nav)))
+                run.host.status(f"AUTO: orbiting until the bow points along the first leg "
+                                f"({off_deg:.0f} deg off)")
+                run.task, run.phase, self._leg = join, Phase.JOIN, (target, accept_radius_m, next_point)
+                return
         here = (nav.lat_deg, nav.lon_deg)
         speed = wp_speed_mps(params, run.speed_override_mps)
         start = run.last_point or here
@@ -164,6 +189,14 @@ class NavItem(ItemTask):
 
     def step(self, nav: NavState) -> bool:
         run = self.run
+        if run.phase is Phase.JOIN:
+            assert isinstance(run.task, OrbitJoin) and self._leg is not None
+            if not run.task.aligned(nav):
+                return False
+            run.host.status(f"AUTO: leaving the orbit onto the first leg after {nav.t_s - run.since_s:.0f} s")
+            run.last_point = None  # the first leg starts where the boat leaves the orbit
+            self.goto(nav, *self._leg)
+            self._leg = None
         if run.phase is Phase.GOTO:
             assert isinstance(run.task, GotoTask)
             arrived = run.task.distance_m <= CIRCLE_TAKEOVER_M if self.circles else run.task.reached

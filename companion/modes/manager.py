@@ -125,6 +125,8 @@ class ModeManager:
                 old.exit(host)
             except Exception:
                 log.exception("exit() of %r failed", old)
+        if isinstance(mode, NavMode):
+            mode.handed_over = old.task if isinstance(old, NavMode) and self._entered else None
         try:
             mode.enter(host)
         except Exception as exc:

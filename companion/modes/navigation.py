@@ -282,6 +282,9 @@ class NavMode(Mode):
         self._timer = StepTimer()
         self.drift = CurrentObserver()
         """The current observer (the mode manager shares one between its modes and updates it)."""
+        self.handed_over: Task | None = None
+        """The task the previous navigating mode was running when this one was entered (set by the
+        mode manager before :meth:`enter`; AUTO continues a hold orbit from it)."""
 
     def requirements(self, host: ModeHost) -> str | None:
         return requires_position(host)
