@@ -34,10 +34,10 @@ PAST_RAD = math.radians(20.0)
 FULL_ORBIT_RAD = 2.0 * math.pi
 """The join gives up waiting after the bow has turned this far."""
 COURSE_MIN_SPEED_MPS = 0.3
+"""Below this speed over ground the heading stands in for the (noisy) course."""
 MIN_LEG_RADII = 5.0
 """A first waypoint closer than this many orbit radii is gone to at once (from inside or near the
 orbit the bearing to it swings round with the boat and may never line up with the course)."""
-"""Below this speed over ground the heading stands in for the (noisy) course."""
 
 
 def course_rad(nav: NavState) -> float:
