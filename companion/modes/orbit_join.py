@@ -11,13 +11,17 @@ points along the leg, then starts the leg from where the boat is::
     to_go = lam * wrap(beta - chi)          beta: bearing from the boat to the leg's end
                                             chi:  course over ground, lam: +1 clockwise orbit
     join when  -PAST_RAD <= to_go <= USV_WP_JOIN     or the bow has turned a full orbit
+                                                     or MAX_WAIT_S have passed
 
 ``to_go`` is the turn still to come the orbit's way; the join happens while the boat is still
 turning toward the leg (the leg's LOS finishes the turn the same way: with the default 70 deg the
 boat leaves before the orbit's far side, 1.9-2.3 m from the point in a 0.5 m/s current), and
 after at most one orbit (about 12 s at ``USV_HOLD_ORB_SPD`` 1 m/s on ``USV_TURN_RAD`` 2 m) it
 joins wherever it is.  AUTO entered from rest or from a straight run starts at once, as
-ArduRover's does: only a hold orbit handed over by the previous mode is continued.
+ArduRover's does: only a hold orbit handed over by the previous mode is continued, and only while
+the boat is on it (within :data:`ON_ORBIT_M` of its circle).  A boat that drifted off the orbit
+(disarmed in RTL, then armed again: in a 0.5 m/s current it drifts 50 m in 100 s) would otherwise
+have to run back to the orbit before it could line up, and AUTO would wait on that return.
 """
 
 from __future__ import annotations
@@ -35,6 +39,11 @@ FULL_ORBIT_RAD = 2.0 * math.pi
 """The join gives up waiting after the bow has turned this far."""
 COURSE_MIN_SPEED_MPS = 0.3
 """Below this speed over ground the heading stands in for the (noisy) course."""
+ON_ORBIT_M = 2.0
+"""AUTO waits on the orbit only if the boat is this close to the orbit's circle."""
+MAX_WAIT_S = 20.0
+"""Never longer than this (vehicle time; one orbit is about 12 s at ``USV_HOLD_ORB_SPD`` 1 m/s on
+``USV_TURN_RAD`` 2 m): a boat swept off the orbit while waiting still starts its mission."""
 MIN_LEG_RADII = 5.0
 """A first waypoint closer than this many orbit radii is gone to at once (from inside or near the
 orbit the bearing to it swings round with the boat and may never line up with the course)."""
@@ -59,12 +68,16 @@ class OrbitJoin:
         self.distance_m = math.inf
         self.cross_track_m = 0.0
         self._last_heading_rad: float | None = None
+        self._start_s: float | None = None
 
     def worth_waiting(self, nav: NavState) -> bool:
-        """Whether the leg's end is far enough for a wait on the orbit (:data:`MIN_LEG_RADII`)."""
+        """Whether the boat is on the orbit (:data:`ON_ORBIT_M`) and the leg's end far enough for a
+        wait there (:data:`MIN_LEG_RADII`)."""
         here = self.frame.to_ne(nav.lat_deg, nav.lon_deg)
         end = self.frame.to_ne(*self.point)
-        return math.hypot(end[0] - here[0], end[1] - here[1]) > MIN_LEG_RADII * self.orbit.radius_m
+        on_orbit = abs(math.hypot(*here) - self.orbit.radius_m) <= ON_ORBIT_M
+        far = math.hypot(end[0] - here[0], end[1] - here[1]) > MIN_LEG_RADII * self.orbit.radius_m
+        return on_orbit and far
 
     def to_go_rad(self, nav: NavState) -> float:
         """The turn (rad, the orbit's way) from the course to the bearing of the leg's end."""
@@ -75,6 +88,10 @@ class OrbitJoin:
 
     def aligned(self, nav: NavState) -> bool:
         """Whether to leave the orbit now (module docstring)."""
+        if self._start_s is None:
+            self._start_s = nav.t_s
+        if nav.t_s - self._start_s >= MAX_WAIT_S:
+            return True
         if self._last_heading_rad is not None:
             self.turned_rad += self.lam * wrap_pi(nav.heading_rad - self._last_heading_rad)
         self._last_heading_rad = nav.heading_rad

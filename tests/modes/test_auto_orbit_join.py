@@ -16,6 +16,7 @@ from companion.mission.items import MissionItem, MissionType
 from companion.modes.auto import AutoMode
 from companion.modes.auto_items import Phase
 from companion.modes.holding import OrbitTask
+from companion.modes.orbit_join import MAX_WAIT_S
 from companion.vehicle import Vehicle
 from tests.mavlink.helpers import HOME_LAT_DEG, HOME_LON_DEG, make_ctx, make_vehicle
 
@@ -188,3 +189,35 @@ def test_without_usv_wp_join_auto_leaves_the_orbit_at_once() -> None:
     rig.place_for(90.0)
     assert rig.vehicle.set_mode(ModeNumber.AUTO) is None
     assert rig.auto.phase is Phase.GOTO
+
+
+def test_auto_after_the_boat_drifted_off_the_orbit_starts_the_leg_at_once() -> None:
+    """Disarmed in RTL the boat drifts off the orbit; armed again and put in AUTO it must not wait
+    for a return to the orbit before the mission starts (found in the flood SITL search test)."""
+    rig = OrbitRig()
+    rig.hold_home_on_the_orbit()
+    for _ in range(20):
+        rig.circle()
+    for _ in range(5):
+        rig.sample(0.0, 15.0, math.pi, 0.5, 0.0)  # 15 m downstream, heading south, drifting
+    assert rig.vehicle.set_mode(ModeNumber.AUTO) is None
+    assert rig.auto.phase is Phase.GOTO
+    assert not any("orbiting until" in t for t in rig.texts)
+
+
+def test_the_wait_on_the_orbit_ends_after_max_wait_s_even_if_the_bow_never_lines_up() -> None:
+    rig = OrbitRig()
+    rig.hold_home_on_the_orbit()
+    for _ in range(20):
+        rig.circle()
+    rig.place_for(180.0)
+    assert rig.vehicle.set_mode(ModeNumber.AUTO) is None
+    assert rig.auto.phase is Phase.JOIN
+    waited_s = 0.0
+    for _ in range(round((MAX_WAIT_S + 5.0) / DT_S)):  # the boat sits on the circle, bow away from the leg
+        rig.sample(0.0, -2.0, math.pi, 0.0, 0.0)
+        if rig.auto.phase is not Phase.JOIN:
+            break
+        waited_s += DT_S
+    assert MAX_WAIT_S - 0.5 <= waited_s <= MAX_WAIT_S + 0.5, waited_s
+    assert any(t.startswith("AUTO: leaving the orbit onto the first leg") for t in rig.texts)
