@@ -8,7 +8,13 @@ import numpy as np
 import pytest
 
 from benchmarks.identify import simulated_record
-from companion.models.active_prediction import held_correction_gain, predict_active, predict_plain, run_filter
+from companion.models.active_prediction import (
+    DELTA_NU_GAIN_RULE,
+    held_correction_gain,
+    predict_active,
+    predict_plain,
+    run_filter,
+)
 from companion.models.current_ukf import current_filter_settings
 from companion.models.evaluate import j_of, reference
 from companion.models.pipeline import identify_models
@@ -37,6 +43,17 @@ def test_a_correction_that_explains_the_error_is_held_in_full() -> None:
 def test_a_correction_unrelated_to_the_error_is_not_used() -> None:
     gain = held_correction_gain(_series(6000, 3), _series(6000, 4), H, DT)
     assert np.mean(gain[1000:] == 0.0) > 0.9
+
+
+def test_a_correction_that_tracks_several_times_its_own_size_is_not_used() -> None:
+    """A held yaw correction that follows a gyro bias: the measured error is five times the
+    correction (the truth has no bias), so holding it would make the prediction worse."""
+    corr = _series(6000, 7)
+    err = 5.0 * corr + 0.5 * _series(6000, 8)
+    assert np.all(held_correction_gain(corr, err, H, DT)[3000:] == 1.0)  # significance alone: held in full
+    assert np.all(held_correction_gain(corr, err, H, DT, rule=DELTA_NU_GAIN_RULE)[1000:] == 0.0)
+    lagging = 1.2 * corr + 0.2 * _series(6000, 9)  # a filter that lags holds somewhat less than the error
+    assert np.all(held_correction_gain(corr, lagging, H, DT, rule=DELTA_NU_GAIN_RULE)[3000:] == 1.0)
 
 
 def test_the_gain_only_uses_windows_that_have_ended() -> None:
