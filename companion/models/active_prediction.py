@@ -31,6 +31,9 @@ exponentially forgotten past (:data:`GAIN_MEMORY_S`), with its standard error s 
 A :class:`GainRule` decides what is used:
 
 * significance: g = 0 unless t > ``min_t``;
+* out of sample: the gain as it was applied must have beaten the plain prediction over the
+  past (the exponentially forgotten mean of (e - g c)^2 - e^2, its t statistic below
+  -``min_t_beaten``): a relation fitted on the past that no longer holds is dropped;
 * plausibility: a held correction explains about the error it stands for (somewhat more where
   the filter lags it), so a slope well above one, (b - ``slope_limit``) / s >
   ``max_t_above_limit``, is something else the correction happens to track (a gyro bias in the
@@ -81,11 +84,14 @@ class GainRule:
     """g = 0 where the slope exceeds ``slope_limit`` by more than this many standard errors."""
     slope_limit: float = 1.0
     """The largest plausible slope (a filter that lags the error holds somewhat less than it)."""
+    min_t_beaten: float = -math.inf
+    """g = 0 unless the gain, as it was applied, has beaten the plain prediction over the past
+    (same memory): the t statistic of the drop in squared error must exceed this; -inf: no check."""
 
 
 CURRENT_GAIN_RULE = GainRule(min_t=2.0, max_t_above_limit=2.0)
 """The current's part of the held correction (current filter only)."""
-DELTA_NU_GAIN_RULE = GainRule(min_t=2.5, max_t_above_limit=1.0, slope_limit=1.5)
+DELTA_NU_GAIN_RULE = GainRule(min_t=2.5, max_t_above_limit=1.0, slope_limit=1.5, min_t_beaten=1.0)
 """delta_nu's part of the held correction."""
 
 
@@ -173,7 +179,28 @@ def held_correction_gain(correction: FloatArray, plain_error: FloatArray, horizo
     fitted = np.where((t_stat > rule.min_t) & ~implausible, np.clip(slope, 0.0, 1.0), 0.0)
     gain = np.zeros_like(correction)
     gain[horizon_steps:] = fitted[: n - horizon_steps]
+    if math.isfinite(rule.min_t_beaten):
+        gain *= _has_beaten_plain(gain, correction, plain_error, horizon_steps, lam, rule.min_t_beaten)
     return np.asarray(gain)
+
+
+def _has_beaten_plain(gain: FloatArray, correction: FloatArray, plain_error: FloatArray,
+                      horizon_steps: int, lam: float, min_t: float) -> FloatArray:
+    """1 where the windows that ended so far say the gain, as applied, lowered the squared error
+    of the plain prediction (t statistic of the mean drop above ``min_t``, one sample per
+    horizon), else 0; per start sample and DOF, known h after each window's start."""
+    from scipy.signal import lfilter
+
+    drop = plain_error**2 - (plain_error - gain * correction) ** 2
+    n = drop.shape[0]
+    weight = (1.0 - lam ** np.arange(1, n + 1))[:, None]
+    mean = lfilter([1.0 - lam], [1.0, -lam], drop, axis=0) / weight
+    mean_sq = lfilter([1.0 - lam], [1.0, -lam], drop * drop, axis=0) / weight
+    n_eff = np.minimum(np.arange(1, n + 1), 1.0 / (1.0 - lam)) / max(horizon_steps, 1)
+    std_err = np.sqrt(np.maximum(mean_sq - mean**2, 1e-300) / n_eff[:, None])
+    beaten = np.zeros_like(drop)
+    beaten[horizon_steps:] = (mean / std_err > min_t)[: n - horizon_steps]
+    return beaten
 
 
 def predict_active(model: LinearInParamsModel, rec: Record, run: FilterRun, horizon_s: float,
