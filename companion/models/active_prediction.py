@@ -30,7 +30,7 @@ least-squares slope b of the realised plain-prediction error on the held correct
 exponentially forgotten past (:data:`GAIN_MEMORY_S`), with its standard error s and t = b / s.
 A :class:`GainRule` decides what is used:
 
-* significance: g = 0 unless t > ``min_t``;
+* significance: g = 0 unless t > ``min_t``, and before ``min_history_s`` of the record;
 * out of sample: the gain as it was applied must have beaten the plain prediction over the
   past (the exponentially forgotten mean of (e - g c)^2 - e^2, its t statistic below
   -``min_t_beaten``): a relation fitted on the past that no longer holds is dropped;
@@ -84,6 +84,9 @@ class GainRule:
     """g = 0 where the slope exceeds ``slope_limit`` by more than this many standard errors."""
     slope_limit: float = 1.0
     """The largest plausible slope (a filter that lags the error holds somewhat less than it)."""
+    min_history_s: float = 0.0
+    """g = 0 until the fit has seen this much of the record (its first windows are few and did
+    not carry over)."""
     min_t_beaten: float = -math.inf
     """g = 0 unless the gain, as it was applied, has beaten the plain prediction over the past
     (same memory): the t statistic of the drop in squared error must exceed this; -inf: no check."""
@@ -91,7 +94,8 @@ class GainRule:
 
 CURRENT_GAIN_RULE = GainRule(min_t=2.0, max_t_above_limit=2.0)
 """The current's part of the held correction (current filter only)."""
-DELTA_NU_GAIN_RULE = GainRule(min_t=2.5, max_t_above_limit=1.0, slope_limit=1.5, min_t_beaten=1.0)
+DELTA_NU_GAIN_RULE = GainRule(min_t=2.5, max_t_above_limit=1.0, slope_limit=1.5, min_history_s=10.0,
+                              min_t_beaten=1.0)
 """delta_nu's part of the held correction."""
 
 
@@ -177,6 +181,7 @@ def held_correction_gain(correction: FloatArray, plain_error: FloatArray, horizo
         t_stat = slope / std_err
         implausible = (slope - rule.slope_limit) > rule.max_t_above_limit * std_err
     fitted = np.where((t_stat > rule.min_t) & ~implausible, np.clip(slope, 0.0, 1.0), 0.0)
+    fitted[: round(rule.min_history_s / dt_s)] = 0.0
     gain = np.zeros_like(correction)
     gain[horizon_steps:] = fitted[: n - horizon_steps]
     if math.isfinite(rule.min_t_beaten):
