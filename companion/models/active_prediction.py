@@ -32,8 +32,8 @@ A :class:`GainRule` decides what is used:
 
 * significance: g = 0 unless t > ``min_t``, and before ``min_history_s`` of the record;
 * out of sample: the gain as it was applied must have beaten the plain prediction over the
-  past (the exponentially forgotten mean of (e - g c)^2 - e^2, its t statistic below
-  -``min_t_beaten``): a relation fitted on the past that no longer holds is dropped;
+  past (the exponentially forgotten mean drop e^2 - (e - g c)^2, its t statistic above
+  ``min_t_beaten``): a relation fitted on the past that no longer holds is dropped;
 * plausibility: a held correction explains about the error it stands for (somewhat more where
   the filter lags it), so a slope well above one, (b - ``slope_limit``) / s >
   ``max_t_above_limit``, is something else the correction happens to track (a gyro bias in the
@@ -45,7 +45,7 @@ delta_nu, which in calm water mostly carries noise, gets the strict rule
 was tried: it lost most of the gain where the error does persist (a third of the no-error J
 became a half).  The gain at sample i uses only predictions that ended by i, as a
 boat would.  ``gated=False`` gives the raw held correction (g = 1), as the chapter's Eq. 5
-holds it.  The rules were chosen on the tuning seed set of ``benchmarks.identify.active_gate``.
+holds it.  The rules were chosen on the tuning seed offsets of ``benchmarks.identify.active_gate``.
 
 The *plain* prediction, which the active one is compared with (Table 4's ratio), is the qLPV
 model alone from the same filter's over-ground velocity estimate, without model error or current.

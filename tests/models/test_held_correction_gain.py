@@ -10,6 +10,7 @@ import pytest
 from benchmarks.identify import simulated_record
 from companion.models.active_prediction import (
     DELTA_NU_GAIN_RULE,
+    GainRule,
     held_correction_gain,
     predict_active,
     predict_plain,
@@ -54,6 +55,18 @@ def test_a_correction_that_tracks_several_times_its_own_size_is_not_used() -> No
     assert np.all(held_correction_gain(corr, err, H, DT, rule=DELTA_NU_GAIN_RULE)[1000:] == 0.0)
     lagging = 1.2 * corr + 0.2 * _series(6000, 9)  # a filter that lags holds somewhat less than the error
     assert np.all(held_correction_gain(corr, lagging, H, DT, rule=DELTA_NU_GAIN_RULE)[3000:] == 1.0)
+
+
+def test_a_gain_that_stops_paying_off_is_dropped_sooner_than_its_fit_fades() -> None:
+    corr = _series(9000, 11)
+    err = 0.3 * _series(9000, 12)
+    err[:4000] += corr[:4000]  # the correction explains the error for 40 s ...
+    err[4000:] -= 0.8 * corr[4000:]  # ... then points the wrong way
+    fit_only = held_correction_gain(corr, err, H, DT, rule=GainRule(min_t=2.5))
+    checked = held_correction_gain(corr, err, H, DT, rule=DELTA_NU_GAIN_RULE)
+    assert np.mean(checked[3000:4000]) > 0.9  # held while it pays off
+    assert np.mean(fit_only[4500:5000]) > 0.3  # the fit still holds a third of it 5 s after the break
+    assert np.mean(checked[4500:5000]) < 0.05  # the realised losses have already dropped it
 
 
 def test_the_gain_only_uses_windows_that_have_ended() -> None:
