@@ -8,7 +8,14 @@ import numpy as np
 import pytest
 
 from benchmarks.identify import simulated_record
-from companion.models.active_prediction import held_correction_gain, predict_active, predict_plain, run_filter
+from companion.models.active_prediction import (
+    DELTA_NU_GAIN_RULE,
+    GainRule,
+    held_correction_gain,
+    predict_active,
+    predict_plain,
+    run_filter,
+)
 from companion.models.current_ukf import current_filter_settings
 from companion.models.evaluate import j_of, reference
 from companion.models.pipeline import identify_models
@@ -37,6 +44,29 @@ def test_a_correction_that_explains_the_error_is_held_in_full() -> None:
 def test_a_correction_unrelated_to_the_error_is_not_used() -> None:
     gain = held_correction_gain(_series(6000, 3), _series(6000, 4), H, DT)
     assert np.mean(gain[1000:] == 0.0) > 0.9
+
+
+def test_a_correction_that_tracks_several_times_its_own_size_is_not_used() -> None:
+    """A held yaw correction that follows a gyro bias: the measured error is five times the
+    correction (the truth has no bias), so holding it would make the prediction worse."""
+    corr = _series(6000, 7)
+    err = 5.0 * corr + 0.5 * _series(6000, 8)
+    assert np.all(held_correction_gain(corr, err, H, DT)[3000:] == 1.0)  # significance alone: held in full
+    assert np.all(held_correction_gain(corr, err, H, DT, rule=DELTA_NU_GAIN_RULE)[1000:] == 0.0)
+    lagging = 1.2 * corr + 0.2 * _series(6000, 9)  # a filter that lags holds somewhat less than the error
+    assert np.all(held_correction_gain(corr, lagging, H, DT, rule=DELTA_NU_GAIN_RULE)[3000:] == 1.0)
+
+
+def test_a_gain_that_stops_paying_off_is_dropped_sooner_than_its_fit_fades() -> None:
+    corr = _series(9000, 11)
+    err = 0.3 * _series(9000, 12)
+    err[:4000] += corr[:4000]  # the correction explains the error for 40 s ...
+    err[4000:] -= 0.8 * corr[4000:]  # ... then points the wrong way
+    fit_only = held_correction_gain(corr, err, H, DT, rule=GainRule(min_t=2.5))
+    checked = held_correction_gain(corr, err, H, DT, rule=DELTA_NU_GAIN_RULE)
+    assert np.mean(checked[3000:4000]) > 0.9  # held while it pays off
+    assert np.mean(fit_only[5000:5500]) > 0.3  # the fit still holds a third of it 10 s after the break
+    assert np.mean(checked[5000:5500]) < 0.05  # the realised losses have already dropped it
 
 
 def test_the_gain_only_uses_windows_that_have_ended() -> None:
@@ -69,6 +99,9 @@ def test_the_chapter_filter_no_longer_spoils_calm_water_predictions(qlpv) -> Non
     raw = _ratio(qlpv, calm, UKFSettings(), gated=False)
     assert max(raw.values()) > 2.0  # held as Eq. 5 holds it, the noise in delta_nu costs 2-13x
     assert max(_ratio(qlpv, calm, UKFSettings()).values()) <= 1.0
+    # the current filter's held yaw correction follows the gyro bias on this log (1.055 with one
+    # gain for the whole correction): the delta_nu rule's plausible-slope check drops it
+    assert max(_ratio(qlpv, calm, current_filter_settings()).values()) <= 1.0
 
 
 @pytest.mark.slow
