@@ -62,6 +62,8 @@ class OrbitJoin:
         self.orbit = orbit
         self.frame = orbit.frame
         self.point = target
+        self.end_ne = self.frame.to_ne(*target)
+        """The leg's end in the orbit's frame (north, east m from the orbit's centre)."""
         self.tolerance_rad = tolerance_rad
         self.lam = orbit.orbit.lam
         self.turned_rad = 0.0
@@ -74,16 +76,14 @@ class OrbitJoin:
         """Whether the boat is on the orbit (:data:`ON_ORBIT_M`) and the leg's end far enough for a
         wait there (:data:`MIN_LEG_RADII`)."""
         here = self.frame.to_ne(nav.lat_deg, nav.lon_deg)
-        end = self.frame.to_ne(*self.point)
         on_orbit = abs(math.hypot(*here) - self.orbit.radius_m) <= ON_ORBIT_M
-        far = math.hypot(end[0] - here[0], end[1] - here[1]) > MIN_LEG_RADII * self.orbit.radius_m
+        far = math.dist(self.end_ne, here) > MIN_LEG_RADII * self.orbit.radius_m
         return on_orbit and far
 
     def to_go_rad(self, nav: NavState) -> float:
         """The turn (rad, the orbit's way) from the course to the bearing of the leg's end."""
         here = self.frame.to_ne(nav.lat_deg, nav.lon_deg)
-        end = self.frame.to_ne(*self.point)
-        bearing = distance_bearing(end[0] - here[0], end[1] - here[1])[1]
+        bearing = distance_bearing(self.end_ne[0] - here[0], self.end_ne[1] - here[1])[1]
         return self.lam * wrap_pi(bearing - course_rad(nav))
 
     def aligned(self, nav: NavState) -> bool:
@@ -100,7 +100,5 @@ class OrbitJoin:
 
     def step(self, nav: NavState, dt_s: float) -> ControlTarget:
         target = self.orbit.step(nav, dt_s)
-        here = self.frame.to_ne(nav.lat_deg, nav.lon_deg)
-        end = self.frame.to_ne(*self.point)
-        self.distance_m = math.hypot(end[0] - here[0], end[1] - here[1])
+        self.distance_m = math.dist(self.end_ne, self.frame.to_ne(nav.lat_deg, nav.lon_deg))
         return target
