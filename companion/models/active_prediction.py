@@ -162,18 +162,12 @@ def held_correction_gain(correction: FloatArray, plain_error: FloatArray, horizo
     The window starting at j ends at j + h, so the gain at start i is fitted on windows j <= i - h.
     Samples 1 s apart are far from independent: the t statistic counts one sample per horizon.
     ``rule`` (default: significance alone, ``memory_s`` and ``min_t``) says what is used."""
-    from scipy.signal import lfilter
-
     rule = rule or GainRule(memory_s=memory_s, min_t=min_t)
     lam = math.exp(-dt_s / rule.memory_s)
-    b, a = [1.0 - lam], [1.0, -lam]
-    sxy = lfilter(b, a, correction * plain_error, axis=0)
-    sxx = lfilter(b, a, correction * correction, axis=0)
-    syy = lfilter(b, a, plain_error * plain_error, axis=0)
+    sxy, sxx, syy = (_forgotten_mean(x, lam) for x in (correction * plain_error, correction * correction,
+                                                         plain_error * plain_error))
     n = correction.shape[0]
-    weight = 1.0 - lam ** np.arange(1, n + 1)  # what the forgetting sums have seen (bias)
-    sxy, sxx, syy = (x / weight[:, None] for x in (sxy, sxx, syy))
-    n_eff = np.minimum(np.arange(1, n + 1), 1.0 / (1.0 - lam)) / max(horizon_steps, 1)
+    n_eff = _effective_samples(n, lam, horizon_steps)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         slope = np.where(sxx > 0, sxy / sxx, 0.0)
         resid = np.maximum(syy - slope * sxy, 1e-30)
@@ -194,18 +188,29 @@ def _has_beaten_plain(gain: FloatArray, correction: FloatArray, plain_error: Flo
     """1 where the windows that ended so far say the gain, as applied, lowered the squared error
     of the plain prediction (t statistic of the mean drop above ``min_t``, one sample per
     horizon), else 0; per start sample and DOF, known h after each window's start."""
-    from scipy.signal import lfilter
-
     drop = plain_error**2 - (plain_error - gain * correction) ** 2
     n = drop.shape[0]
-    weight = (1.0 - lam ** np.arange(1, n + 1))[:, None]
-    mean = lfilter([1.0 - lam], [1.0, -lam], drop, axis=0) / weight
-    mean_sq = lfilter([1.0 - lam], [1.0, -lam], drop * drop, axis=0) / weight
-    n_eff = np.minimum(np.arange(1, n + 1), 1.0 / (1.0 - lam)) / max(horizon_steps, 1)
+    mean, mean_sq = _forgotten_mean(drop, lam), _forgotten_mean(drop * drop, lam)
+    n_eff = _effective_samples(n, lam, horizon_steps)
     std_err = np.sqrt(np.maximum(mean_sq - mean**2, 1e-300) / n_eff[:, None])
     beaten = np.zeros_like(drop)
     beaten[horizon_steps:] = (mean / std_err > min_t)[: n - horizon_steps]
     return beaten
+
+
+def _forgotten_mean(x: FloatArray, lam: float) -> FloatArray:
+    """Exponentially forgotten running mean along axis 0 (factor ``lam`` per sample), divided by
+    the weight the forgetting sum has seen so far (no start-up bias toward 0)."""
+    from scipy.signal import lfilter
+
+    weight = 1.0 - lam ** np.arange(1, x.shape[0] + 1)
+    return np.asarray(lfilter([1.0 - lam], [1.0, -lam], x, axis=0) / weight[:, None])
+
+
+def _effective_samples(n: int, lam: float, horizon_steps: int) -> FloatArray:
+    """Independent samples behind each running mean: the forgetting's memory (at most
+    1 / (1 - lam)) counted one per horizon, since windows 1 s apart overlap."""
+    return np.asarray(np.minimum(np.arange(1, n + 1), 1.0 / (1.0 - lam)) / max(horizon_steps, 1))
 
 
 def predict_active(model: LinearInParamsModel, rec: Record, run: FilterRun, horizon_s: float,
