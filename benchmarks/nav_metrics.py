@@ -43,12 +43,11 @@ from typing import Any
 import numpy as np
 
 from companion.guidance.geo import LocalFrame
+from companion.modes.orbit_join import LEAVING_ORBIT_TEXT
 
 MID_LEG_MARGIN_M = 10.0
 FIRST_LEG_WINDOW_S = 15.0
 """The start of the square: the largest distance from the path in this long after AUTO starts."""
-LEAVING_ORBIT_TEXT = "AUTO: leaving the orbit onto the first leg"
-"""The vehicle's STATUSTEXT when the first leg starts after AUTO kept orbiting (``USV_WP_JOIN``)."""
 ON_CIRCLE_MARGIN_M = 0.5
 MODE_LOITER, MODE_AUTO, MODE_RTL = 5, 10, 11
 

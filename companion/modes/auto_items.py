@@ -42,7 +42,7 @@ from companion.modes.navigation import (
     estimator_current,
     wp_speed_mps,
 )
-from companion.modes.orbit_join import OrbitJoin
+from companion.modes.orbit_join import LEAVING_ORBIT_TEXT, OrbitJoin
 
 LEG_RESTART_M = 50.0
 """Knocked farther than this off the old leg's end, the next leg starts where the boat is."""
@@ -193,7 +193,7 @@ class NavItem(ItemTask):
             assert isinstance(run.task, OrbitJoin) and self._leg is not None
             if not run.task.aligned(nav):
                 return False
-            run.host.status(f"AUTO: leaving the orbit onto the first leg after {nav.t_s - run.since_s:.0f} s")
+            run.host.status(f"{LEAVING_ORBIT_TEXT} after {nav.t_s - run.since_s:.0f} s")
             run.last_point = None  # the first leg starts where the boat leaves the orbit
             self.goto(nav, *self._leg)
             self._leg = None

@@ -39,6 +39,8 @@ FULL_ORBIT_RAD = 2.0 * math.pi
 """The join gives up waiting after the bow has turned this far."""
 COURSE_MIN_SPEED_MPS = 0.3
 """Below this speed over ground the heading stands in for the (noisy) course."""
+LEAVING_ORBIT_TEXT = "AUTO: leaving the orbit onto the first leg"
+"""Start of the STATUSTEXT that ends the wait (``usv bench nav`` starts the first leg there)."""
 ON_ORBIT_M = 2.0
 """AUTO waits on the orbit only if the boat is this close to the orbit's circle."""
 MAX_WAIT_S = 20.0
