@@ -22,7 +22,7 @@ A non-finite or out-of-order sample is skipped (``None``, logged once), never ra
 from __future__ import annotations
 
 import logging
-import math
+from math import isfinite
 from pathlib import Path
 
 import numpy as np
@@ -108,8 +108,8 @@ def _current_estimate(t_s: float, x: np.ndarray, p: np.ndarray) -> CurrentEstima
     """The current states (6, 7) of a current-augmented filter as a :class:`CurrentEstimate`; the
     Mahalanobis distance of :func:`~companion.models.current_ukf.current_mahalanobis` in closed
     form for the 2 x 2 block (numpy's general solve cost ~100 us per sample, more than the filter)."""
-    cn, ce = float(x[6]), float(x[7])
-    a, b, d = float(p[6, 6]), float(p[6, 7]), float(p[7, 7])
+    cn, ce = x.item(6), x.item(7)
+    a, b, d = p.item(6, 6), p.item(6, 7), p.item(7, 7)
     det = a * d - b * b
     mahalanobis = (d * cn * cn - 2.0 * b * cn * ce + a * ce * ce) / det if det > 0.0 else 0.0
     return CurrentEstimate.from_components(t_s, cn, ce, a, d, current_weight(mahalanobis))
@@ -149,12 +149,14 @@ class EstimatorStage:
     def step(self, nav: NavState, applied: ActuatorCommand | None) -> ModelError | None:
         """One predict+update for ``nav`` with the input ``applied`` since the last sample
         (``None``: nothing applied yet, throttle 0 and nozzle centred)."""
-        z = np.array([nav.u_mps, nav.v_mps, nav.r_radps])
+        u_mps, v_mps, r_radps = nav.u_mps, nav.v_mps, nav.r_radps
         needs_heading = self.ukf.n == 8 or self.current_ukf is not None
-        if not (np.all(np.isfinite(z)) and math.isfinite(nav.t_s)
-                and (math.isfinite(nav.heading_rad) or not needs_heading)):
+        # math.isfinite on the three floats: what np.all(np.isfinite(z)) says, at 1/40 of its cost
+        if not (isfinite(u_mps) and isfinite(v_mps) and isfinite(r_radps) and isfinite(nav.t_s)
+                and (isfinite(nav.heading_rad) or not needs_heading)):
             self._warn(f"non-finite navigation sample at t={nav.t_s}")
             return None
+        z = np.array((u_mps, v_mps, r_radps))
         thr = applied.throttle if applied is not None else 0.0
         nozzle = applied.nozzle_rad if applied is not None else 0.0
         if self._t_last is None or not 0.0 < nav.t_s - self._t_last <= MAX_GAP_S:
@@ -175,8 +177,8 @@ class EstimatorStage:
         if current_filter is not None:
             self.current = _current_estimate(nav.t_s, current_filter.x, current_filter.P)
         x, p = self.ukf.x, self.ukf.P
-        return ModelError(nav.t_s, (float(x[3]), float(x[4]), float(x[5])),
-                          (float(p[3, 3]), float(p[4, 4]), float(p[5, 5])), float(self.ukf.nis))
+        return ModelError(nav.t_s, (x.item(3), x.item(4), x.item(5)),
+                          (p.item(3, 3), p.item(4, 4), p.item(5, 5)), float(self.ukf.nis))
 
     def _warn(self, text: str) -> None:
         if not self._warned:
