@@ -134,3 +134,24 @@ def test_current_filter_finds_the_simulated_flood_current() -> None:
 def test_current_filter_reports_slack_water_as_slack() -> None:
     est = _estimate_in_sitl("0,0")
     assert est.speed_mps < 0.1
+
+
+@pytest.mark.parametrize("field", ["u_mps", "v_mps", "r_radps", "t_s", "heading_rad"])
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_a_non_finite_sample_is_skipped_and_leaves_the_filters_as_they_were(tmp_path: Path, field: str,
+                                                                              bad: float) -> None:
+    """The default stage (chapter filter + current filter beside it, which needs the heading):
+    a NaN or infinite velocity, rate, time or heading gives ``None`` and changes no estimate."""
+    cfg = default_config().with_overrides({"vehicle.state_dir": str(tmp_path)})
+    stage = EstimatorStage(load_companion_model(cfg), load_companion_ukf_settings(cfg),
+                           current_settings=load_companion_current_settings(cfg))
+    applied = ActuatorCommand(0.0, 0.0, 0.0)
+    for k in range(20):
+        stage.step(_nav(0.01 * k, 1.0), applied)
+    assert stage.current_ukf is not None
+    before = (stage.ukf.x.copy(), stage.current_ukf.x.copy(), stage.current)
+    fields = {name: getattr(_nav(0.2, 1.0), name) for name in NavState.__dataclass_fields__}
+    assert stage.step(NavState(**{**fields, field: bad}), applied) is None
+    assert (stage.ukf.x == before[0]).all() and (stage.current_ukf.x == before[1]).all()
+    assert stage.current is before[2]
+    assert stage.step(_nav(0.2, 1.0), applied) is not None  # the next good sample is used
