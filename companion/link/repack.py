@@ -21,13 +21,23 @@ SEQ_INDEX = 4
 IFLAG_SIGNED = 0x01
 
 
+_FAST_CRC = getattr(mav, "mcrf4xx", None)
+"""fastcrc's CRC-16/MCRF4XX, which pymavlink uses when it is installed (else its Python one)."""
+
+
+def x25_crc(data: bytes) -> int:
+    """MAVLink's X.25 (CRC-16/MCRF4XX) checksum of ``data``, seeded 0xFFFF."""
+    if _FAST_CRC is not None:
+        return int(_FAST_CRC(data, 0xFFFF))
+    return int(mav.x25crc(data).crc)
+
+
 def restamp(frame: bytes, seq: int, crc_extra: int) -> bytes:
     """``frame`` (unsigned MAVLink 2) with sequence number ``seq`` and its CRC recomputed."""
     buf = bytearray(frame)
     buf[SEQ_INDEX] = seq
-    crc = mav.x25crc(buf[1:-2])
-    crc.accumulate(bytes((crc_extra,)))
-    buf[-2:] = crc.crc.to_bytes(2, "little")
+    crc = x25_crc(bytes(buf[1:-2]) + bytes((crc_extra,)))
+    buf[-2:] = crc.to_bytes(2, "little")
     return bytes(buf)
 
 

@@ -54,3 +54,14 @@ def test_a_signed_link_and_other_ids_are_packed_by_pymavlink() -> None:
     frame = shared.pack(msg, signed)
     assert frame[2] & mav.MAVLINK_IFLAG_SIGNED and len(frame) == len(shared.pack(msg, plain)) + 13
     assert shared.pack(msg, other) == _messages()[1].pack(new_link_codec(2, 1))
+
+
+@pytest.mark.parametrize("data", [b"", b"123456789", bytes(range(256))])
+def test_the_checksum_is_mavlinks_x25(data: bytes, monkeypatch: pytest.MonkeyPatch) -> None:
+    from pymavlink.generator.mavcrc import x25crc_slow
+
+    from companion.link import repack
+
+    assert repack.x25_crc(data) == x25crc_slow(data).crc
+    monkeypatch.setattr(repack, "_FAST_CRC", None)  # without fastcrc: pymavlink's own
+    assert repack.x25_crc(data) == x25crc_slow(data).crc
