@@ -115,7 +115,7 @@ class MavlinkService(BaseService):
         return min(STREAM_IDLE_S, max(TICK_S, wake_s - now_s))
 
     def stream_once(self, now_s: float) -> None:
-        """Send every message that is due on every link (each built once per tick)."""
+        """Send every message that is due on every link (each built and packed once per tick)."""
         cache: dict[int, Any] = {}
         shared = SharedPack()  # each message packed once, restamped for the other links
         for link in tuple(self.links.links):
