@@ -11,9 +11,7 @@ current 0.5 m/s toward 90 deg) into ``OUT_DIR``:
   times (so the run is deterministic): HEARTBEAT at 1 Hz, arm at 3 s, DO_REPOSITION (GUIDED) to
   120 m north / 80 m east at 5 s and to 50 m south / 100 m east at 60 s.  ``guided_mavlink.csv``
   holds every frame the vehicle sent on that link (simulated time, message type, the raw frame
-  in hex, so equal files mean equal telemetry values, sequence numbers included);
-  ``guided_mavlink_listener.csv`` the same for a second link that only listens (as a second
-  ground station does: telemetry and broadcasts go to every link).
+  in hex, so equal files mean equal telemetry values, sequence numbers included).
 
 Run it on two commits and compare the directories (``diff -r``): a behaviour-neutral change
 leaves every file identical.  The simulation clock starts at a fixed Unix time here, so
@@ -49,11 +47,6 @@ HOME = (41.77, 123.43)
 """``sim.home`` of the default configuration."""
 
 
-def _record(clock: SimClock, out: TextIO, frame: bytes) -> None:
-    msg = mav.MAVLink(None).decode(bytearray(frame))
-    out.write(f"{clock.now_s():.2f},{msg.get_type()},{frame.hex()}\n")
-
-
 class ScriptedGcs(BaseService):
     """A ground station on an in-process link, speaking MAVLink at fixed simulated times."""
 
@@ -66,7 +59,8 @@ class ScriptedGcs(BaseService):
         self.link: Link = links.make_link("scripted-gcs", self._record)
 
     def _record(self, frame: bytes) -> None:
-        _record(self.clock, self.out, frame)
+        msg = mav.MAVLink(None).decode(bytearray(frame))
+        self.out.write(f"{self.clock.now_s():.2f},{msg.get_type()},{frame.hex()}\n")
 
     def _send(self, msg: Any) -> None:
         self.link.feed(msg.pack(self.codec))
@@ -108,12 +102,9 @@ async def guided_run(out_dir: Path) -> ModeNumber:
         services = build_companion(ctx, sim.companion_links)
         app = Application([sim, *services.in_start_order()])
         app.add(TruthLog(sim.boat, clock, out_dir / "guided_truth.csv"))
-        with (out_dir / "guided_mavlink.csv").open("w", encoding="utf-8") as out, \
-                (out_dir / "guided_mavlink_listener.csv").open("w", encoding="utf-8") as listener:
+        with (out_dir / "guided_mavlink.csv").open("w", encoding="utf-8") as out:
             out.write("t_s,type,frame_hex\n")
-            listener.write("t_s,type,frame_hex\n")
             app.add(ScriptedGcs(clock, services.links, out))
-            services.links.make_link("listener", lambda frame: _record(clock, listener, frame))
             app.add(StopAfter(clock, DURATION_S, app.request_stop))
             await app.run()
         return ModeNumber(services.vehicle.modes.current.number)

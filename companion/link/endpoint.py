@@ -19,7 +19,6 @@ from typing import Any
 from companion.clock import Clock, WallClock
 from companion.link.dialect import mav
 from companion.link.gcs_presence import GcsPresence
-from companion.link.repack import SharedPack
 from companion.link.signing import LinkSecurity, Verdict, new_link_codec
 from companion.link.streams import StreamRates
 from companion.link.tlog import TlogWriter
@@ -93,13 +92,12 @@ class Link:
             security.attach(self)
 
     # -- sending -------------------------------------------------------------------------
-    def send(self, msg: Any, shared: SharedPack | None = None) -> None:
-        """Encode ``msg`` with this link's sequence number and write it (errors are logged);
-        ``shared``: the frames of a send round to several links (packed once, restamped)."""
+    def send(self, msg: Any) -> None:
+        """Encode ``msg`` with this link's sequence number and write it (errors are logged)."""
         if self.closed:
             return
         try:
-            frame = msg.pack(self.codec) if shared is None else shared.pack(msg, self.codec)
+            frame = msg.pack(self.codec)
         except Exception:
             log.exception("cannot encode %s", msg.get_type())
             return

@@ -34,7 +34,6 @@ from companion.config import parse_host_port, parse_serial
 from companion.link import streams
 from companion.link.endpoint import Dispatcher, Link
 from companion.link.gcs_presence import Silence
-from companion.link.repack import SharedPack
 from companion.link.signing import LinkSecurity
 from companion.link.tlog import MB, TlogDirectory
 from companion.messages import STATUS_TEXT_TOPIC, Severity, StatusText
@@ -133,10 +132,9 @@ class LinkManager(BaseService):
             self._announce(f"Signing key {state} by SETUP_SIGNING on {link.name}", Severity.NOTICE)
 
     def broadcast(self, msg: Any) -> None:
-        """Send one message on every link (each with its own sequence number; packed once)."""
-        shared = SharedPack()
+        """Send one message on every link (each with its own sequence number)."""
         for link in tuple(self.links):
-            link.send(msg, shared)
+            link.send(msg)
 
     def gcs_heartbeat_age_s(self) -> float | None:
         """Seconds (vehicle clock) since the last GCS heartbeat on any link (``None``: never heard)."""

@@ -22,7 +22,6 @@ from companion.link import streams
 from companion.link.dialect import mav
 from companion.link.endpoint import Link
 from companion.link.manager import LinkManager
-from companion.link.repack import SharedPack
 from companion.mavlink import identity
 from companion.mavlink.command_service import CommandService
 from companion.mavlink.commands import CommandRegistry
@@ -115,9 +114,8 @@ class MavlinkService(BaseService):
         return min(STREAM_IDLE_S, max(TICK_S, wake_s - now_s))
 
     def stream_once(self, now_s: float) -> None:
-        """Send every message that is due on every link (each built and packed once per tick)."""
+        """Send every message that is due on every link (each built once per tick)."""
         cache: dict[int, Any] = {}
-        shared = SharedPack()  # each message packed once, restamped for the other links
         for link in tuple(self.links.links):
             for msg_id in link.rates.due(now_s):
                 if msg_id not in cache:
@@ -128,7 +126,7 @@ class MavlinkService(BaseService):
                         cache[msg_id] = None
                 msg = cache[msg_id]
                 for one in msg if isinstance(msg, tuple) else () if msg is None else (msg,):
-                    link.send(one, shared)
+                    link.send(one)
 
     def _on_status_text(self, status: StatusText) -> None:
         text = status.text.encode("ascii", "replace")
