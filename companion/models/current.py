@@ -313,24 +313,24 @@ def _output_error(logs: Sequence[_Log], currents: FloatArray, c_thrust: float, s
         assert lg.rec.psi_rad is not None
         psi = lg.rec.psi_rad[::every]
         raw_bases.append((current_body(psi, 1.0, 0.0), current_body(psi, 0.0, 1.0)))
+    targets = [lg.nu[::every] for lg in logs]
+    inputs = [tuple(np.ascontiguousarray(x[sl], dtype=float)
+                    for x in (lg.rec.t_s, lg.rec.throttle, lg.rec.delta_rad)) for lg in logs]
 
     def residuals_of(params: Iterable[FloatArray]) -> list[FloatArray]:
         p = np.array(list(params), dtype=float)
         thetas = np.zeros((len(p), start.theta.size))
         thetas[:, idx] = p[:, :n_theta]
         thetas = thetas.reshape(len(p), *start.theta.shape)
-        out: list[list[FloatArray]] = [[] for _ in p]
-        for k, (lg, raw) in enumerate(zip(logs, raw_bases, strict=True)):
+        out = []
+        for k, (lg, raw, target, (t_s, throttle, delta_rad)) in enumerate(
+                zip(logs, raw_bases, targets, inputs, strict=True)):
             cn, ce = p[:, n_theta + 2 * k], p[:, n_theta + 2 * k + 1]
             nu_r0 = lg.nu[0] - cn[:, None] * lg.basis[0, 0] - ce[:, None] * lg.basis[1, 0]
-            sims = qlpv_simulate_batch(np.ascontiguousarray(lg.rec.t_s[sl]), nu_r0,
-                                       np.ascontiguousarray(lg.rec.throttle[sl], dtype=float),
-                                       np.ascontiguousarray(lg.rec.delta_rad[sl], dtype=float),
-                                       thetas, float(c_thrust), NU_LIMIT)
-            for j, sim in enumerate(sims):
-                og = sim[::stride] + cn[j] * raw[0] + ce[j] * raw[1]
-                out[j].append(((og - lg.nu[::every]) / lg.scale).ravel() / math.sqrt(len(og)))
-        return [np.concatenate(o) for o in out]
+            sims = qlpv_simulate_batch(t_s, nu_r0, throttle, delta_rad, thetas, float(c_thrust), NU_LIMIT)
+            og = sims[:, ::stride] + cn[:, None, None] * raw[0] + ce[:, None, None] * raw[1]
+            out.append(((og - target) / lg.scale).reshape(len(p), -1) / math.sqrt(og.shape[1]))
+        return list(np.concatenate(out, axis=1))
 
     def residuals(p: FloatArray) -> FloatArray:
         return residuals_of([p])[0]

@@ -14,6 +14,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from companion.models.qlpv_kernel import rk4_step_columns
+
 
 @njit(cache=True)
 def quick_normal_equations(nu: np.ndarray, nu_dot: np.ndarray, basis: np.ndarray, basis_dot: np.ndarray,
@@ -52,3 +54,29 @@ def quick_normal_equations(nu: np.ndarray, nu_dot: np.ndarray, basis: np.ndarray
         for b in range(a):
             gram[a, b] = gram[b, a]
     return gram, rhs
+
+
+@njit(cache=True)
+def over_ground_error_batch(t_s: np.ndarray, nu_r0: np.ndarray, throttle: np.ndarray, delta_rad: np.ndarray,
+                            theta: np.ndarray, c_thrust: float, limit: np.ndarray, cn: np.ndarray,
+                            ce: np.ndarray, basis_n: np.ndarray, basis_e: np.ndarray,
+                            target: np.ndarray) -> np.ndarray:
+    """Sum over samples of the squared free-run error over ground, per model and DOF (M, 3): each
+    of the M models (``theta`` (M, 3, 11)) runs through the water from ``nu_r0`` (M, 3) as
+    :func:`companion.models.qlpv_kernel.qlpv_simulate_batch` does, its current (``cn``, ``ce``)
+    is added back, nu_r + V_cN ``basis_n`` + V_cE ``basis_e`` (bases (N, 3) at the logged
+    heading), and it is compared with ``target`` (N, 3), without storing the runs."""
+    n, m = t_s.size, nu_r0.shape[0]
+    th = np.ascontiguousarray(theta.transpose(1, 2, 0))
+    x = np.ascontiguousarray(nu_r0.T)
+    k = np.empty((4, 3, m))
+    sq = np.zeros((3, m))
+    for i in range(n):
+        if i > 0:
+            h = t_s[i] - t_s[i - 1]
+            rk4_step_columns(x, h, throttle[i - 1], delta_rad[i - 1], th, c_thrust, limit, k)
+        for q in range(3):
+            for j in range(m):
+                e = x[q, j] + cn[j] * basis_n[i, q] + ce[j] * basis_e[i, q] - target[i, q]
+                sq[q, j] += e * e
+    return sq.T.copy()

@@ -11,7 +11,8 @@ is the same cost, computed faster and equal to it to rounding
   one log's current, the other logs' equations are reused; summed over logs they are solved on
   scaled columns, (D^-1 G D^-1) D theta = D^-1 Phi^T Y with D = diag(RMS of each regressor), as
   the reference solves Phi D^-1;
-* the free runs of all candidates go through :func:`companion.models.qlpv_kernel.qlpv_simulate_batch`.
+* the free runs of all candidates are stepped together and their error over ground summed on the
+  way (:func:`companion.models.current_kernel.over_ground_error_batch`).
 """
 
 from __future__ import annotations
@@ -22,15 +23,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from companion.models.base import NU_LIMIT, FloatArray
-from companion.models.current_kernel import quick_normal_equations
+from companion.models.current_kernel import over_ground_error_batch, quick_normal_equations
 from companion.models.qlpv import QLPVModel
-from companion.models.qlpv_kernel import qlpv_simulate_batch
 
 if TYPE_CHECKING:
     from companion.models.current import _Log
 
 CHUNK_MODELS = 16
-"""Candidates simulated together (bounds the memory of the batched free runs: 16 x N x 3 floats)."""
+"""Candidates simulated together."""
 
 
 class QuickCost:
@@ -65,23 +65,31 @@ class QuickCost:
 
     def theta(self, currents: FloatArray) -> FloatArray:
         """The quick fit's qLPV parameters (3, 11) at ``currents``."""
-        parts = [self._log_equations(k, float(currents[2 * k]), float(currents[2 * k + 1]))
-                 for k in range(len(self._logs))]
-        gram = sum(p[0] for p in parts)
-        rhs = sum(p[1] for p in parts)
-        rows = sum(p[2] for p in parts)
-        theta = np.zeros(self._mask.shape)
+        return self._thetas(np.asarray(currents, dtype=float)[None, :])[0]
+
+    def _thetas(self, cand: FloatArray) -> FloatArray:
+        grams = np.zeros((len(cand), 11, 11))
+        rhs = np.zeros((len(cand), 11, 3))
+        rows = np.zeros(len(cand))
+        for i, p in enumerate(cand):
+            for k in range(len(self._logs)):
+                g, b, n = self._log_equations(k, float(p[2 * k]), float(p[2 * k + 1]))
+                grams[i] += g
+                rhs[i] += b
+                rows[i] += n
+        theta = np.zeros((len(cand), *self._mask.shape))
         for j in range(3):
-            sel = self._mask[j]
-            g = np.asarray(gram)[np.ix_(sel, sel)]
-            col = np.sqrt(np.diag(g) / rows)
+            sel = np.flatnonzero(self._mask[j])
+            g = grams[:, sel[:, None], sel[None, :]]
+            col = np.sqrt(np.diagonal(g, axis1=1, axis2=2) / rows[:, None])
             col[col == 0] = 1.0
-            a = g / np.outer(col, col)
-            b = np.asarray(rhs)[sel, j] / col
+            a = g / (col[:, :, None] * col[:, None, :])
+            b = rhs[:, sel, j] / col
             try:
-                theta[j, sel] = np.linalg.solve(a, b) / col
+                x = np.linalg.solve(a, b[..., None])[..., 0]
             except np.linalg.LinAlgError:
-                theta[j, sel] = np.linalg.lstsq(a, b, rcond=None)[0] / col
+                x = np.stack([np.linalg.lstsq(ai, bi, rcond=None)[0] for ai, bi in zip(a, b, strict=True)])
+            theta[:, j, sel] = x / col
         return theta
 
     def costs(self, candidates: FloatArray) -> FloatArray:
@@ -96,16 +104,15 @@ class QuickCost:
         return float(self.costs(np.asarray(currents)[None, :])[0])
 
     def _chunk_costs(self, cand: FloatArray) -> FloatArray:
-        thetas = np.stack([self.theta(p) for p in cand])
+        thetas = self._thetas(cand)
         cost = np.zeros(len(cand))
         for k, lg in enumerate(self._logs):
-            cn, ce = cand[:, 2 * k, None], cand[:, 2 * k + 1, None]
-            nu_r0 = lg.nu[0] - cn * lg.basis[0, 0] - ce * lg.basis[1, 0]
+            cn, ce = np.ascontiguousarray(cand[:, 2 * k]), np.ascontiguousarray(cand[:, 2 * k + 1])
+            nu_r0 = lg.nu[0] - cn[:, None] * lg.basis[0, 0] - ce[:, None] * lg.basis[1, 0]
             t_s, throttle, delta_rad = self._inputs[k]
-            sims = qlpv_simulate_batch(t_s, nu_r0, throttle, delta_rad, thetas, self._c_thrust, NU_LIMIT)
             b_n, b_e = self._raw_bases[k]
-            for j in range(len(cand)):
-                og = sims[j] + cn[j, 0] * b_n + ce[j, 0] * b_e
-                cost[j] += float(np.sum(np.mean((og - lg.nu) ** 2, axis=0) / lg.scale**2))
+            sq = over_ground_error_batch(t_s, nu_r0, throttle, delta_rad, thetas, self._c_thrust, NU_LIMIT,
+                                         cn, ce, b_n, b_e, lg.nu)
+            cost += np.sum(sq / len(t_s) / lg.scale**2, axis=1)
         cost[~np.isfinite(cost)] = np.inf
         return cost

@@ -82,6 +82,32 @@ def _derivative_column(u: float, v: float, r: float, thr: float, cos_dl: float, 
             + theta[q, 8, j] * abs(r) * r + theta[q, 9, j] * u * r + theta[q, 10, j] * ts
 
 
+
+@njit(cache=True, inline="always")
+def rk4_step_columns(x: np.ndarray, h: float, thr: float, dl: float, theta: np.ndarray, c_thrust: float,
+                     limit: np.ndarray, k: np.ndarray) -> None:
+    """One step of :func:`qlpv_simulate` (no ``delta_nu``) for M models side by side, in place:
+    ``x`` (3, M) states, ``theta`` (3, 11, M), ``k`` (4, 3, M) scratch for the RK4 stages."""
+    m = x.shape[1]
+    cd, sd = np.cos(dl), np.sin(dl)
+    for j in range(m):
+        _derivative_column(x[0, j], x[1, j], x[2, j], thr, cd, sd, theta, c_thrust, j, k[0])
+    for j in range(m):
+        _derivative_column(x[0, j] + 0.5 * h * k[0, 0, j], x[1, j] + 0.5 * h * k[0, 1, j],
+                           x[2, j] + 0.5 * h * k[0, 2, j], thr, cd, sd, theta, c_thrust, j, k[1])
+    for j in range(m):
+        _derivative_column(x[0, j] + 0.5 * h * k[1, 0, j], x[1, j] + 0.5 * h * k[1, 1, j],
+                           x[2, j] + 0.5 * h * k[1, 2, j], thr, cd, sd, theta, c_thrust, j, k[2])
+    for j in range(m):
+        _derivative_column(x[0, j] + h * k[2, 0, j], x[1, j] + h * k[2, 1, j], x[2, j] + h * k[2, 2, j],
+                           thr, cd, sd, theta, c_thrust, j, k[3])
+    for i in range(3):
+        lim = limit[i]
+        for j in range(m):
+            y = x[i, j] + h / 6.0 * (k[0, i, j] + 2.0 * k[1, i, j] + 2.0 * k[2, i, j] + k[3, i, j])
+            x[i, j] = min(max(y, -lim), lim)
+
+
 @njit(cache=True)
 def qlpv_simulate_batch(t_s: np.ndarray, nu0: np.ndarray, throttle: np.ndarray, delta_rad: np.ndarray,
                         theta: np.ndarray, c_thrust: float, limit: np.ndarray) -> np.ndarray:
@@ -95,26 +121,8 @@ def qlpv_simulate_batch(t_s: np.ndarray, nu0: np.ndarray, throttle: np.ndarray, 
     x = np.ascontiguousarray(nu0.T)
     out = np.empty((n, 3, m))
     out[0] = x
-    k1, k2, k3, k4 = np.empty((3, m)), np.empty((3, m)), np.empty((3, m)), np.empty((3, m))
-    for k in range(n - 1):
-        h = t_s[k + 1] - t_s[k]
-        thr = throttle[k]
-        cd, sd = np.cos(delta_rad[k]), np.sin(delta_rad[k])
-        for j in range(m):
-            _derivative_column(x[0, j], x[1, j], x[2, j], thr, cd, sd, th, c_thrust, j, k1)
-        for j in range(m):
-            _derivative_column(x[0, j] + 0.5 * h * k1[0, j], x[1, j] + 0.5 * h * k1[1, j],
-                               x[2, j] + 0.5 * h * k1[2, j], thr, cd, sd, th, c_thrust, j, k2)
-        for j in range(m):
-            _derivative_column(x[0, j] + 0.5 * h * k2[0, j], x[1, j] + 0.5 * h * k2[1, j],
-                               x[2, j] + 0.5 * h * k2[2, j], thr, cd, sd, th, c_thrust, j, k3)
-        for j in range(m):
-            _derivative_column(x[0, j] + h * k3[0, j], x[1, j] + h * k3[1, j], x[2, j] + h * k3[2, j],
-                               thr, cd, sd, th, c_thrust, j, k4)
-        for i in range(3):
-            lim = limit[i]
-            for j in range(m):
-                y = x[i, j] + h / 6.0 * (k1[i, j] + 2.0 * k2[i, j] + 2.0 * k3[i, j] + k4[i, j])
-                x[i, j] = min(max(y, -lim), lim)
-        out[k + 1] = x
+    k = np.empty((4, 3, m))
+    for i in range(n - 1):
+        rk4_step_columns(x, t_s[i + 1] - t_s[i], throttle[i], delta_rad[i], th, c_thrust, limit, k)
+        out[i + 1] = x
     return out.transpose(2, 0, 1)
