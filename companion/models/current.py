@@ -37,10 +37,10 @@ from scipy.optimize import OptimizeResult, least_squares
 from scipy.signal import savgol_filter
 
 from companion.models.base import NU_LIMIT, FloatArray
+from companion.models.current_kernel import over_ground_residuals_batch
 from companion.models.current_quick import QuickCost
 from companion.models.logs import Record
 from companion.models.qlpv import QLPVModel
-from companion.models.qlpv_kernel import qlpv_simulate_batch
 
 MAX_CURRENT_MPS = 5.0
 """Bound of the current search (m/s per axis): well above any flood current a 10 m/s boat works in."""
@@ -300,8 +300,9 @@ def _output_error(logs: Sequence[_Log], currents: FloatArray, c_thrust: float, s
     from the quick fit at ``currents``) and the currents; ``x`` ends with the currents.  The
     simulation runs on every ``sim_every``-th sample (inputs held), the residual is taken at 10 Hz.
     The finite-difference Jacobian's parameter vectors are simulated together
-    (:func:`companion.models.qlpv_kernel.qlpv_simulate_batch`, handed to the solver as its
-    ``workers`` map): the same residuals, so the same fit, as one at a time."""
+    (:func:`companion.models.current_kernel.over_ground_residuals_batch`, handed to the solver as
+    its ``workers`` map): the same residuals, so the same fit, as one at a time."""
+    c_thrust = float(c_thrust)
     start = _quick_fit(logs, currents, c_thrust)
     idx = np.flatnonzero(start.theta.ravel() != 0)
     n_theta = idx.size
@@ -313,7 +314,7 @@ def _output_error(logs: Sequence[_Log], currents: FloatArray, c_thrust: float, s
         assert lg.rec.psi_rad is not None
         psi = lg.rec.psi_rad[::every]
         raw_bases.append((current_body(psi, 1.0, 0.0), current_body(psi, 0.0, 1.0)))
-    targets = [lg.nu[::every] for lg in logs]
+    targets = [np.ascontiguousarray(lg.nu[::every]) for lg in logs]
     inputs = [tuple(np.ascontiguousarray(x[sl], dtype=float)
                     for x in (lg.rec.t_s, lg.rec.throttle, lg.rec.delta_rad)) for lg in logs]
 
@@ -325,11 +326,12 @@ def _output_error(logs: Sequence[_Log], currents: FloatArray, c_thrust: float, s
         out = []
         for k, (lg, raw, target, (t_s, throttle, delta_rad)) in enumerate(
                 zip(logs, raw_bases, targets, inputs, strict=True)):
-            cn, ce = p[:, n_theta + 2 * k], p[:, n_theta + 2 * k + 1]
+            cn = np.ascontiguousarray(p[:, n_theta + 2 * k])
+            ce = np.ascontiguousarray(p[:, n_theta + 2 * k + 1])
             nu_r0 = lg.nu[0] - cn[:, None] * lg.basis[0, 0] - ce[:, None] * lg.basis[1, 0]
-            sims = qlpv_simulate_batch(t_s, nu_r0, throttle, delta_rad, thetas, float(c_thrust), NU_LIMIT)
-            og = sims[:, ::stride] + cn[:, None, None] * raw[0] + ce[:, None, None] * raw[1]
-            out.append(((og - target) / lg.scale).reshape(len(p), -1) / math.sqrt(og.shape[1]))
+            out.append(over_ground_residuals_batch(t_s, nu_r0, throttle, delta_rad, thetas, c_thrust,
+                                                   NU_LIMIT, cn, ce, raw[0], raw[1], target, lg.scale,
+                                                   stride))
         return list(np.concatenate(out, axis=1))
 
     def residuals(p: FloatArray) -> FloatArray:

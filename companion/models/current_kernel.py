@@ -80,3 +80,32 @@ def over_ground_error_batch(t_s: np.ndarray, nu_r0: np.ndarray, throttle: np.nda
                 e = x[q, j] + cn[j] * basis_n[i, q] + ce[j] * basis_e[i, q] - target[i, q]
                 sq[q, j] += e * e
     return sq.T.copy()
+
+
+@njit(cache=True)
+def over_ground_residuals_batch(t_s: np.ndarray, nu_r0: np.ndarray, throttle: np.ndarray,
+                                delta_rad: np.ndarray, theta: np.ndarray, c_thrust: float, limit: np.ndarray,
+                                cn: np.ndarray, ce: np.ndarray, basis_n: np.ndarray, basis_e: np.ndarray,
+                                target: np.ndarray, scale: np.ndarray, stride: int) -> np.ndarray:
+    """The output-error residuals of M parameter vectors (M, 3 K): the free runs of
+    :func:`over_ground_error_batch` on ``t_s``, taken at every ``stride``-th sample (K of them;
+    ``basis_*`` and ``target`` (K, 3) there), ((nu_r + V_cN b_N + V_cE b_E) - target) / scale / sqrt(K),
+    in that order of operations (the numbers numpy gives for the same expression)."""
+    n, m = t_s.size, nu_r0.shape[0]
+    n_out = target.shape[0]
+    th = np.ascontiguousarray(theta.transpose(1, 2, 0))
+    x = np.ascontiguousarray(nu_r0.T)
+    k = np.empty((4, 3, m))
+    out = np.empty((m, 3 * n_out))
+    root = np.sqrt(n_out)
+    for i in range(n):
+        if i > 0:
+            h = t_s[i] - t_s[i - 1]
+            rk4_step_columns(x, h, throttle[i - 1], delta_rad[i - 1], th, c_thrust, limit, k)
+        if i % stride == 0:
+            o = i // stride
+            for q in range(3):
+                for j in range(m):
+                    og = x[q, j] + cn[j] * basis_n[o, q] + ce[j] * basis_e[o, q]
+                    out[j, 3 * o + q] = (og - target[o, q]) / scale[q] / root
+    return out
