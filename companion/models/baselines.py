@@ -39,23 +39,39 @@ class _AffineModel(LinearInParamsModel):
     """A model whose features are affine in nu: ``nu_dot = A nu + b(throttle, delta)``.
 
     Its free run is the same RK4 with zero-order-hold input and the same clipping as
-    :meth:`LinearInParamsModel.simulate`, written on Python floats with ``b`` of every interval
-    computed up front: about 30 times faster than evaluating the feature vector four times per
-    step with numpy (the baselines are simulated dozens of times by ``usv identify``).
+    :meth:`LinearInParamsModel.simulate`, with ``b`` of every interval computed up front and the
+    steps compiled (:func:`companion.models.affine_kernel.affine_simulate`; the baselines are
+    simulated dozens of times by ``usv identify``).  :meth:`simulate_python` is the same loop on
+    Python floats, the readable reference (the same numbers).
     """
 
     def simulate(self, t_s: FloatArray, nu0: FloatArray, throttle: FloatArray, delta_rad: FloatArray,
                  delta_nu: FloatArray | None = None) -> FloatArray:
         if delta_nu is not None:
             return super().simulate(t_s, nu0, throttle, delta_rad, delta_nu)
+        from companion.models.affine_kernel import affine_simulate
+
         t = np.asarray(t_s, dtype=float)
-        n = t.size
+        a, b = self._affine_terms(throttle, delta_rad)
+        return np.asarray(affine_simulate(np.ascontiguousarray(a), np.ascontiguousarray(b), np.diff(t),
+                                          np.array(nu0, dtype=float).reshape(3), NU_LIMIT))
+
+    def _affine_terms(self, throttle: FloatArray, delta_rad: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """A (3, 3; columns u, v, r) and b of every sample (N, 3)."""
         names = ("1", "u", "throttle", "v", "r", "delta")
         i1, iu, ithr, iv, ir, idl = (LINEAR_FEATURES.index(name) for name in names)
         th = self.theta
-        a = th[:, [iu, iv, ir]].tolist()  # A: columns u, v, r
         b = (th[:, i1][None, :] + np.asarray(throttle, dtype=float)[:, None] * th[:, ithr][None, :]
-             + np.asarray(delta_rad, dtype=float)[:, None] * th[:, idl][None, :]).tolist()
+             + np.asarray(delta_rad, dtype=float)[:, None] * th[:, idl][None, :])
+        return th[:, [iu, iv, ir]], b
+
+    def simulate_python(self, t_s: FloatArray, nu0: FloatArray, throttle: FloatArray, delta_rad: FloatArray
+                        ) -> FloatArray:
+        """:meth:`simulate` (no ``delta_nu``) on Python floats: the readable reference."""
+        t = np.asarray(t_s, dtype=float)
+        n = t.size
+        a_arr, b_arr = self._affine_terms(throttle, delta_rad)
+        a, b = a_arr.tolist(), b_arr.tolist()
         dts = np.diff(t).tolist()
         lim = NU_LIMIT.tolist()
         (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = a

@@ -29,14 +29,16 @@ fit exactly as it was.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.optimize import OptimizeResult, least_squares
 from scipy.signal import savgol_filter
 
-from companion.models.base import FloatArray
+from companion.models.base import NU_LIMIT, FloatArray
+from companion.models.current_kernel import over_ground_residuals_batch
+from companion.models.current_quick import QuickCost
 from companion.models.logs import Record
 from companion.models.qlpv import QLPVModel
 
@@ -229,9 +231,7 @@ def estimate_currents(records: Sequence[Record], c_thrust: float, window_s: floa
     logs = [_prepare(rec, window_s) for rec in records]
     n = len(logs)
 
-    def quick_cost(p: FloatArray) -> float:
-        return free_run_over_ground_cost(_quick_fit(logs, p, c_thrust), logs, p)
-
+    quick_cost = QuickCost(logs, c_thrust)
     best = _grid_search(quick_cost, n)
     for k in range(n):
         direction = _weakest_direction(quick_cost, best, k)
@@ -258,22 +258,22 @@ def estimate_currents(records: Sequence[Record], c_thrust: float, window_s: floa
     return CurrentFit(estimated, significant, float(2.0 * sol.cost))
 
 
-def _grid_search(cost: Callable[[FloatArray], float], n: int) -> FloatArray:
-    """Stage 1: grid (one log at a time), then a simplex search over all currents."""
+def _grid_search(cost: QuickCost, n: int) -> FloatArray:
+    """Stage 1: grid (one log at a time, the grid's candidates scored together), then a simplex
+    search over all currents."""
     from scipy.optimize import minimize
 
     best = np.zeros(2 * n)
     best_cost = cost(best)
     axis = np.arange(-GRID_MAX_MPS, GRID_MAX_MPS + 1e-9, GRID_STEP_MPS)
-    grid = [(cn, ce) for cn in axis for ce in axis if math.hypot(cn, ce) <= GRID_MAX_MPS + 1e-9]
+    grid = np.array([(cn, ce) for cn in axis for ce in axis if math.hypot(cn, ce) <= GRID_MAX_MPS + 1e-9])
     for _ in range(2 if n > 1 else 1):
         for k in range(n):
-            for cn, ce in grid:
-                p = best.copy()
-                p[2 * k], p[2 * k + 1] = cn, ce
-                c = cost(p)
-                if c < best_cost:
-                    best, best_cost = p, c
+            candidates = np.tile(best, (len(grid), 1))
+            candidates[:, 2 * k:2 * k + 2] = grid
+            for p, c in zip(candidates, cost.costs(candidates), strict=True):
+                if c < best_cost:  # the first of equal minima, as one at a time
+                    best, best_cost = p.copy(), float(c)
     simplex = best + np.vstack([np.zeros(2 * n), 0.5 * GRID_STEP_MPS * np.eye(2 * n)])
     res = minimize(cost, best, method="Nelder-Mead",
                    options={"xatol": 2e-3, "fatol": 1e-6 * best_cost, "initial_simplex": simplex})
@@ -298,34 +298,51 @@ def _output_error(logs: Sequence[_Log], currents: FloatArray, c_thrust: float, s
                   max_nfev: int = 200) -> OptimizeResult:
     """Least squares of the free-run error over ground, over the non-zero qLPV parameters (started
     from the quick fit at ``currents``) and the currents; ``x`` ends with the currents.  The
-    simulation runs on every ``sim_every``-th sample (inputs held), the residual is taken at 10 Hz."""
+    simulation runs on every ``sim_every``-th sample (inputs held), the residual is taken at 10 Hz.
+    The finite-difference Jacobian's parameter vectors are simulated together
+    (:func:`companion.models.current_kernel.over_ground_residuals_batch`, handed to the solver as
+    its ``workers`` map): the same residuals, so the same fit, as one at a time."""
+    c_thrust = float(c_thrust)
     start = _quick_fit(logs, currents, c_thrust)
     idx = np.flatnonzero(start.theta.ravel() != 0)
     n_theta = idx.size
-
-    def residuals(p: FloatArray) -> FloatArray:
-        theta = np.zeros(start.theta.size)
-        theta[idx] = p[:n_theta]
-        model = QLPVModel(theta.reshape(start.theta.shape), thrust_speed_coeff=c_thrust)
-        out = []
-        for k, (lg, raw) in enumerate(zip(logs, raw_bases, strict=True)):
-            cn, ce = p[n_theta + 2 * k], p[n_theta + 2 * k + 1]
-            nu_r0 = lg.nu[0] - cn * lg.basis[0, 0] - ce * lg.basis[1, 0]
-            sl = slice(None, None, sim_every)
-            sim = model.simulate(lg.rec.t_s[sl], nu_r0, lg.rec.throttle[sl], lg.rec.delta_rad[sl])
-            og = sim[::stride] + cn * raw[0] + ce * raw[1]
-            out.append(((og - lg.nu[::every]) / lg.scale).ravel() / math.sqrt(len(og)))
-        return np.concatenate(out)
-
     stride = max(1, RESIDUAL_EVERY // sim_every)
     every = stride * sim_every
+    sl = slice(None, None, sim_every)
     raw_bases = []
     for lg in logs:
         assert lg.rec.psi_rad is not None
         psi = lg.rec.psi_rad[::every]
         raw_bases.append((current_body(psi, 1.0, 0.0), current_body(psi, 0.0, 1.0)))
+    targets = [np.ascontiguousarray(lg.nu[::every]) for lg in logs]
+    inputs = [tuple(np.ascontiguousarray(x[sl], dtype=float)
+                    for x in (lg.rec.t_s, lg.rec.throttle, lg.rec.delta_rad)) for lg in logs]
+
+    def residuals_of(params: Iterable[FloatArray]) -> list[FloatArray]:
+        p = np.array(list(params), dtype=float)
+        thetas = np.zeros((len(p), start.theta.size))
+        thetas[:, idx] = p[:, :n_theta]
+        thetas = thetas.reshape(len(p), *start.theta.shape)
+        out = []
+        for k, (lg, raw, target, (t_s, throttle, delta_rad)) in enumerate(
+                zip(logs, raw_bases, targets, inputs, strict=True)):
+            cn = np.ascontiguousarray(p[:, n_theta + 2 * k])
+            ce = np.ascontiguousarray(p[:, n_theta + 2 * k + 1])
+            nu_r0 = lg.nu[0] - cn[:, None] * lg.basis[0, 0] - ce[:, None] * lg.basis[1, 0]
+            out.append(over_ground_residuals_batch(t_s, nu_r0, throttle, delta_rad, thetas, c_thrust,
+                                                   NU_LIMIT, cn, ce, raw[0], raw[1], target, lg.scale,
+                                                   stride))
+        return list(np.concatenate(out, axis=1))
+
+    def residuals(p: FloatArray) -> FloatArray:
+        return residuals_of([p])[0]
+
+    def batch_map(_fun: Callable[[FloatArray], FloatArray], params: Iterable[FloatArray]
+                  ) -> list[FloatArray]:
+        return residuals_of(params)
+
     x0 = np.concatenate([start.theta.ravel()[idx], currents])
-    res = least_squares(residuals, x0, x_scale=np.abs(x0) + 1e-2, max_nfev=max_nfev)
+    res = least_squares(residuals, x0, x_scale=np.abs(x0) + 1e-2, max_nfev=max_nfev, workers=batch_map)
     res.n_theta = n_theta
     return res
 

@@ -77,6 +77,7 @@ def identify_models(train: Sequence[Record], *, window_s: float = 2.0, refine: b
     if current not in CURRENT_CHOICES:
         raise ValueError(f"current {current!r}: accepted: {', '.join(CURRENT_CHOICES)}")
     currents: CurrentFit | None = None
+    qlpv_ls: FitResult | None = None
     notes: list[str] = []
     if current == "auto":
         no_heading = [r.name for r in train if r.psi_rad is None]
@@ -84,11 +85,15 @@ def identify_models(train: Sequence[Record], *, window_s: float = 2.0, refine: b
             notes.append(f"no heading column 'psi' in {', '.join(no_heading)}: fitted over ground "
                          "(a current in the water would be taken for the hull's dynamics)")
         else:
-            c0 = fit_qlpv(train, window_s, name="qlpv").model
+            over_ground = fit_qlpv(train, window_s, name="qlpv")
+            c0 = over_ground.model
             assert isinstance(c0, QLPVModel)
             currents = estimate_currents(train, c0.thrust_speed_coeff, window_s)
-            train = [water_relative(r, c) for r, c in zip(train, currents.currents, strict=True)]
-    fits = _fit_all(train, window_s, refine, progress, estimator)
+            relative = [water_relative(r, c) for r, c in zip(train, currents.currents, strict=True)]
+            if all(a is b for a, b in zip(relative, train, strict=True)):
+                qlpv_ls = over_ground  # no current taken out: the same records, the same fit
+            train = relative
+    fits = _fit_all(train, window_s, refine, progress, estimator, qlpv_ls)
     for fit in fits.values():
         fit.currents = currents
         fit.warnings[:0] = notes
@@ -96,13 +101,15 @@ def identify_models(train: Sequence[Record], *, window_s: float = 2.0, refine: b
 
 
 def _fit_all(train: Sequence[Record], window_s: float, refine: bool, progress: Progress | None,
-             estimator: str) -> dict[str, FitResult]:
+             estimator: str, qlpv_ls: FitResult | None = None) -> dict[str, FitResult]:
+    """Every model fitted on ``train``; ``qlpv_ls``: the qLPV least-squares fit of these very
+    records if already made (it is deterministic, so it is not made twice)."""
     zeros = np.zeros((3, 6))
     fits = {
         "linearized": fit_least_squares(LinearizedModel(zeros, name="linearized"), train, window_s),
         "nomoto_sideslip": fit_least_squares(NomotoSideslipModel(zeros, name="nomoto_sideslip"), train,
                                              window_s),
-        "qlpv": fit_qlpv(train, window_s, name="qlpv"),
+        "qlpv": qlpv_ls if qlpv_ls is not None else fit_qlpv(train, window_s, name="qlpv"),
     }
     if estimator == "iv":
         fits = {name: refine_instrumental(fit, train, window_s,
