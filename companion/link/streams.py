@@ -133,15 +133,22 @@ class StreamRates:
 
     def next_due_s(self, now_s: float) -> float | None:
         """When the next message of this link is due (``now_s`` if one was just (re)configured
-        and not yet scheduled), or ``None`` when no stream is on."""
+        and not yet scheduled), or ``None`` when no stream is on.
+
+        The scheduled ids are always a subset of the streamed ones (every change of an interval
+        drops the id's schedule), so "one is unscheduled" is a comparison of sizes and the
+        earliest time the minimum over the schedule (the telemetry task asks this at every wake)."""
         if not self._interval_s:
             return None
-        if any(msg_id not in self._next_s for msg_id in self._interval_s):
+        if len(self._next_s) < len(self._interval_s):
             return now_s
-        return min(self._next_s[msg_id] for msg_id in self._interval_s)
+        return min(self._next_s.values())
 
     def due(self, now_s: float) -> list[int]:
         """Message ids whose time has come; their next time is scheduled."""
+        if self._next_s and len(self._next_s) == len(self._interval_s) \
+                and now_s + 1e-9 < min(self._next_s.values()):
+            return []  # nothing due (the common case on all but the link that set the wake-up)
         out: list[int] = []
         for msg_id, interval in self._interval_s.items():
             next_s = self._next_s.get(msg_id)
