@@ -41,6 +41,10 @@ class NavAssessment:
     fault: str = ""
 
 
+HEALTHY = NavAssessment(True, True)
+"""The assessment of every good sample (one shared immutable value, not one built per sample)."""
+
+
 class NavFaultDetector:
     """Keeps the little history the checks need (module doc)."""
 
@@ -77,7 +81,7 @@ class NavFaultDetector:
             return NavAssessment(False, False, "gyro stuck")
         if not nav.position_valid or nav.fix_type < FixType.FIX_3D:
             return NavAssessment(False, True, "GPS lost")
-        return NavAssessment(True, True)
+        return HEALTHY
 
     def silent(self, now_s: float) -> bool:
         """No usable sample for :data:`SILENT_S` (or none yet is NOT silence: nothing to lose)."""
