@@ -28,6 +28,7 @@ fit exactly as it was.
 
 from __future__ import annotations
 
+import inspect
 import math
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, replace
@@ -294,6 +295,9 @@ def _weakest_direction(cost: Callable[[FloatArray], float], p: FloatArray, k: in
     return np.asarray(vecs[:, 0])
 
 
+_SOLVER_TAKES_WORKERS = "workers" in inspect.signature(least_squares).parameters
+
+
 def _output_error(logs: Sequence[_Log], currents: FloatArray, c_thrust: float, sim_every: int = 1,
                   max_nfev: int = 200) -> OptimizeResult:
     """Least squares of the free-run error over ground, over the non-zero qLPV parameters (started
@@ -342,7 +346,8 @@ def _output_error(logs: Sequence[_Log], currents: FloatArray, c_thrust: float, s
         return residuals_of(params)
 
     x0 = np.concatenate([start.theta.ravel()[idx], currents])
-    res = least_squares(residuals, x0, x_scale=np.abs(x0) + 1e-2, max_nfev=max_nfev, workers=batch_map)
+    batched = {"workers": batch_map} if _SOLVER_TAKES_WORKERS else {}  # scipy >= 1.16; else one at a time
+    res = least_squares(residuals, x0, x_scale=np.abs(x0) + 1e-2, max_nfev=max_nfev, **batched)
     res.n_theta = n_theta
     return res
 

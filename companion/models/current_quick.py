@@ -87,8 +87,8 @@ class QuickCost:
             b = rhs[:, sel, j] / col
             try:
                 x = np.linalg.solve(a, b[..., None])[..., 0]
-            except np.linalg.LinAlgError:
-                x = np.stack([np.linalg.lstsq(ai, bi, rcond=None)[0] for ai, bi in zip(a, b, strict=True)])
+            except np.linalg.LinAlgError:  # one singular: each on its own, as the reference does
+                x = np.stack([_solve_or_lstsq(ai, bi) for ai, bi in zip(a, b, strict=True)])
             theta[:, j, sel] = x / col
         return theta
 
@@ -116,3 +116,10 @@ class QuickCost:
             cost += np.sum(sq / len(t_s) / lg.scale**2, axis=1)
         cost[~np.isfinite(cost)] = np.inf
         return cost
+
+
+def _solve_or_lstsq(a: FloatArray, b: FloatArray) -> FloatArray:
+    try:
+        return np.asarray(np.linalg.solve(a, b))
+    except np.linalg.LinAlgError:
+        return np.asarray(np.linalg.lstsq(a, b, rcond=None)[0])
