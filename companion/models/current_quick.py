@@ -45,6 +45,7 @@ class QuickCost:
         self._inputs = [(np.ascontiguousarray(lg.rec.t_s, dtype=float),
                          np.ascontiguousarray(lg.rec.throttle, dtype=float),
                          np.ascontiguousarray(lg.rec.delta_rad, dtype=float)) for lg in logs]
+        self._nozzle = [(np.cos(delta_rad), np.sin(delta_rad)) for _, _, delta_rad in self._inputs]
         self._raw_bases = []
         for lg in logs:
             assert lg.rec.psi_rad is not None
@@ -56,10 +57,11 @@ class QuickCost:
         key = (k, cn, ce)
         if key not in self._equations:
             lg = self._logs[k]
-            _, throttle, delta_rad = self._inputs[k]
+            throttle = self._inputs[k][1]
+            cos_delta, sin_delta = self._nozzle[k]
             lo, hi = lg.edge, len(lg.rec) - lg.edge
-            gram, rhs = quick_normal_equations(lg.nu, lg.nu_dot, lg.basis, lg.basis_dot, throttle, delta_rad,
-                                               lo, hi, cn, ce, self._c_thrust)
+            gram, rhs = quick_normal_equations(lg.nu, lg.nu_dot, lg.basis, lg.basis_dot, throttle, cos_delta,
+                                               sin_delta, lo, hi, cn, ce, self._c_thrust)
             self._equations[key] = (gram, rhs, hi - lo)
         return self._equations[key]
 
