@@ -28,6 +28,7 @@ fit exactly as it was.
 
 from __future__ import annotations
 
+import inspect
 import math
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, replace
@@ -280,18 +281,22 @@ def _grid_search(cost: QuickCost, n: int) -> FloatArray:
     return np.asarray(res.x) if res.fun < best_cost else best
 
 
-def _weakest_direction(cost: Callable[[FloatArray], float], p: FloatArray, k: int, h: float = 0.02
-                       ) -> FloatArray:
-    """Unit vector of log ``k``'s current along which ``cost`` curves least (finite differences)."""
-    hess = np.zeros((2, 2))
+def _weakest_direction(cost: QuickCost, p: FloatArray, k: int, h: float = 0.02) -> FloatArray:
+    """Unit vector of log ``k``'s current along which ``cost`` curves least (finite differences;
+    the 16 points scored together)."""
+    points = []
     for i in range(2):
         for j in range(2):
             ei, ej = np.zeros_like(p), np.zeros_like(p)
             ei[2 * k + i], ej[2 * k + j] = h, h
-            hess[i, j] = (cost(p + ei + ej) - cost(p + ei - ej) - cost(p - ei + ej)
-                          + cost(p - ei - ej)) / (4 * h * h)
+            points += [p + ei + ej, p + ei - ej, p - ei + ej, p - ei - ej]
+    c = cost.costs(np.array(points)).reshape(2, 2, 4)
+    hess = (c[..., 0] - c[..., 1] - c[..., 2] + c[..., 3]) / (4 * h * h)
     _, vecs = np.linalg.eigh(0.5 * (hess + hess.T))
     return np.asarray(vecs[:, 0])
+
+
+_SOLVER_TAKES_WORKERS = "workers" in inspect.signature(least_squares).parameters
 
 
 def _output_error(logs: Sequence[_Log], currents: FloatArray, c_thrust: float, sim_every: int = 1,
@@ -342,7 +347,8 @@ def _output_error(logs: Sequence[_Log], currents: FloatArray, c_thrust: float, s
         return residuals_of(params)
 
     x0 = np.concatenate([start.theta.ravel()[idx], currents])
-    res = least_squares(residuals, x0, x_scale=np.abs(x0) + 1e-2, max_nfev=max_nfev, workers=batch_map)
+    batched = {"workers": batch_map} if _SOLVER_TAKES_WORKERS else {}  # scipy >= 1.16; else one at a time
+    res = least_squares(residuals, x0, x_scale=np.abs(x0) + 1e-2, max_nfev=max_nfev, **batched)
     res.n_theta = n_theta
     return res
 

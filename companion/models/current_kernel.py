@@ -19,12 +19,13 @@ from companion.models.qlpv_kernel import rk4_step_columns
 
 @njit(cache=True)
 def quick_normal_equations(nu: np.ndarray, nu_dot: np.ndarray, basis: np.ndarray, basis_dot: np.ndarray,
-                           throttle: np.ndarray, delta_rad: np.ndarray, lo: int, hi: int, cn: float,
-                           ce: float, c_thrust: float) -> tuple[np.ndarray, np.ndarray]:
+                           throttle: np.ndarray, cos_delta: np.ndarray, sin_delta: np.ndarray, lo: int,
+                           hi: int, cn: float, ce: float, c_thrust: float) -> tuple[np.ndarray, np.ndarray]:
     """Phi^T Phi (11, 11; the surge block 0-4 and the sway-yaw block 5-10) and Phi^T Y (11, 3;
     the surge column on rows 0-4, the sway and yaw columns on rows 5-10) over rows [lo, hi) at the
     current (``cn``, ``ce``) m/s; regressors in the order of :data:`companion.models.qlpv.QLPV_FEATURES`
-    with T~ = max(throttle^2 - c throttle u, 0)."""
+    with T~ = max(throttle^2 - c throttle u, 0); ``cos_delta``, ``sin_delta``: of the nozzle angle
+    (computed once per log: they do not depend on the current)."""
     gram = np.zeros((11, 11))
     rhs = np.zeros((11, 3))
     f = np.empty(11)
@@ -39,8 +40,8 @@ def quick_normal_equations(nu: np.ndarray, nu_dot: np.ndarray, basis: np.ndarray
         t = thr * thr - c_thrust * thr * u
         if t < 0.0:
             t = 0.0
-        f[0], f[1], f[2], f[3], f[4] = u, abs(u) * u, v * r, r * r, t * np.cos(delta_rad[i])
-        f[5], f[6], f[7], f[8], f[9], f[10] = v, r, abs(v) * v, abs(r) * r, u * r, t * np.sin(delta_rad[i])
+        f[0], f[1], f[2], f[3], f[4] = u, abs(u) * u, v * r, r * r, t * cos_delta[i]
+        f[5], f[6], f[7], f[8], f[9], f[10] = v, r, abs(v) * v, abs(r) * r, u * r, t * sin_delta[i]
         for a in range(5):
             for b in range(a, 5):
                 gram[a, b] += f[a] * f[b]

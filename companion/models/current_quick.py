@@ -45,6 +45,7 @@ class QuickCost:
         self._inputs = [(np.ascontiguousarray(lg.rec.t_s, dtype=float),
                          np.ascontiguousarray(lg.rec.throttle, dtype=float),
                          np.ascontiguousarray(lg.rec.delta_rad, dtype=float)) for lg in logs]
+        self._nozzle = [(np.cos(delta_rad), np.sin(delta_rad)) for _, _, delta_rad in self._inputs]
         self._raw_bases = []
         for lg in logs:
             assert lg.rec.psi_rad is not None
@@ -56,10 +57,11 @@ class QuickCost:
         key = (k, cn, ce)
         if key not in self._equations:
             lg = self._logs[k]
-            _, throttle, delta_rad = self._inputs[k]
+            throttle = self._inputs[k][1]
+            cos_delta, sin_delta = self._nozzle[k]
             lo, hi = lg.edge, len(lg.rec) - lg.edge
-            gram, rhs = quick_normal_equations(lg.nu, lg.nu_dot, lg.basis, lg.basis_dot, throttle, delta_rad,
-                                               lo, hi, cn, ce, self._c_thrust)
+            gram, rhs = quick_normal_equations(lg.nu, lg.nu_dot, lg.basis, lg.basis_dot, throttle, cos_delta,
+                                               sin_delta, lo, hi, cn, ce, self._c_thrust)
             self._equations[key] = (gram, rhs, hi - lo)
         return self._equations[key]
 
@@ -87,8 +89,8 @@ class QuickCost:
             b = rhs[:, sel, j] / col
             try:
                 x = np.linalg.solve(a, b[..., None])[..., 0]
-            except np.linalg.LinAlgError:
-                x = np.stack([np.linalg.lstsq(ai, bi, rcond=None)[0] for ai, bi in zip(a, b, strict=True)])
+            except np.linalg.LinAlgError:  # one singular: each on its own, as the reference does
+                x = np.stack([_solve_or_lstsq(ai, bi) for ai, bi in zip(a, b, strict=True)])
             theta[:, j, sel] = x / col
         return theta
 
@@ -116,3 +118,10 @@ class QuickCost:
             cost += np.sum(sq / len(t_s) / lg.scale**2, axis=1)
         cost[~np.isfinite(cost)] = np.inf
         return cost
+
+
+def _solve_or_lstsq(a: FloatArray, b: FloatArray) -> FloatArray:
+    try:
+        return np.asarray(np.linalg.solve(a, b))
+    except np.linalg.LinAlgError:
+        return np.asarray(np.linalg.lstsq(a, b, rcond=None)[0])
