@@ -17,7 +17,7 @@ from typing import TextIO
 
 import numpy as np
 
-from companion.models.active_prediction import predict_active, predict_plain, run_filter
+from companion.models.active_prediction import FilterRun, predict_active, predict_plain, run_filter
 from companion.models.base import DOF_NAMES, LinearInParamsModel
 from companion.models.baselines import LinearizedModel, NomotoSideslipModel
 from companion.models.current import CurrentFit, LogCurrent, estimate_currents, water_relative
@@ -182,7 +182,9 @@ def validate(models: Mapping[str, LinearInParamsModel], rec: Record, *, horizon_
     if identified_settings is not None:
         idx, active, _ = active_ahead(qlpv, rec, horizon_s, identified_settings, backend)
         val.active_identified = j_of(active, reference(rec)[idx])
-    runs = {"chapter": run_filter(qlpv, rec, settings, backend)}
+    runs: dict[str, FilterRun] = {}
+    if sweep:  # the chapter filter's run is only read by the sweep
+        runs["chapter"] = run_filter(qlpv, rec, settings, backend)
     if current_settings is not None and rec.psi_rad is not None:
         run = runs["current"] = run_filter(qlpv, rec, current_settings, backend)
         meas = reference(rec)

@@ -109,8 +109,10 @@ class Station:
             return [m for m in self.received[since:] if m.get_type() == msg_type]
 
     def wait(self, msg_type: str, predicate: Callable[[Any], bool] = lambda m: True, *,
-             since: int | None = None, timeout_s: float = 20.0) -> Any | None:
-        """The first ``msg_type`` after ``since`` (default: now) matching ``predicate``, or None."""
+             since: int | None = None, timeout_s: float = 20.0,
+             give_up: Callable[[], bool] = lambda: False) -> Any | None:
+        """The first ``msg_type`` after ``since`` (default: now) matching ``predicate``, or None
+        after ``timeout_s`` or as soon as ``give_up()`` (no answer can come any more)."""
         start = self.mark() if since is None else since
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
@@ -118,6 +120,8 @@ class Station:
                 for m in self.received[start:]:
                     if m.get_type() == msg_type and predicate(m):
                         return m
+            if give_up():
+                return None
             time.sleep(0.02)
         return None
 
@@ -136,8 +140,10 @@ class Station:
                 return float(pv.param_value)
         raise AssertionError(f"no PARAM_VALUE for {name}")
 
-    def upload(self, items: list[tuple[float, float]], *, timeout_s: float = 20.0) -> int | None:
-        """Upload waypoints (lat, lon deg) as a mission; returns the MISSION_ACK type or None."""
+    def upload(self, items: list[tuple[float, float]], *, timeout_s: float = 20.0,
+               give_up: Callable[[], bool] = lambda: False) -> int | None:
+        """Upload waypoints (lat, lon deg) as a mission; returns the MISSION_ACK type, or None after
+        ``timeout_s`` or as soon as ``give_up()`` (no answer can come any more)."""
         since = self.mark()
         frames = [self.mav.mission_item_int_encode(1, 1, i, 0 if i == 0 else 3, 16, 0, 1, 0, 2.0, 0, 0,
                                                    round(lat * 1e7), round(lon * 1e7), 0, 0)
@@ -155,6 +161,8 @@ class Station:
                 if m.get_type() in ("MISSION_REQUEST_INT", "MISSION_REQUEST") and m.seq < len(frames):
                     self.send(frames[m.seq])
                     answered.add(m.seq)
+            if give_up():
+                return None
             time.sleep(0.01)
         return None
 

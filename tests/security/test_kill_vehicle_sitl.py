@@ -16,6 +16,7 @@ import signal
 import subprocess
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -42,6 +43,26 @@ def start(cfg: Path, env: dict[str, str], log: Path) -> subprocess.Popen[bytes]:
         time.sleep(0.1)
     start.count += 1  # type: ignore[attr-defined]
     return proc
+
+
+DEAD_GRACE_S = 0.5
+"""After the vehicle process has died, how long an answer it sent before dying may still take to be
+read from the TCP socket (loopback: milliseconds; the station's reader polls every 0.2 s)."""
+
+
+def dead_for_a_while(proc: subprocess.Popen[bytes]) -> Callable[[], bool]:
+    """True once ``proc`` has been dead for :data:`DEAD_GRACE_S`: nothing more can be answered, so
+    waiting out the station's 2 s timeouts after the kill is only wall time."""
+    died_at: list[float] = []
+
+    def check() -> bool:
+        if proc.poll() is None:
+            return False
+        if not died_at:
+            died_at.append(time.monotonic())
+        return time.monotonic() - died_at[0] > DEAD_GRACE_S
+
+    return check
 
 
 def test_sigkill_during_param_sets_and_uploads_loses_nothing_acknowledged(tmp_path: Path) -> None:
@@ -79,20 +100,21 @@ def test_sigkill_during_param_sets_and_uploads_loses_nothing_acknowledged(tmp_pa
                     break
                 killer = threading.Timer(rng.uniform(0.3, 2.0), lambda p=proc: p.send_signal(signal.SIGKILL))
                 killer.start()
+                gone = dead_for_a_while(proc)
                 while proc.poll() is None:
                     n += 1
                     name, value = NAMES[n % 2], 1.0 + (n % 400) * 0.1
                     since = gcs.mark()
                     gcs.param_set(name, value)
                     if gcs.wait("PARAM_VALUE", lambda m, nm=name, v=value: m.param_id == nm
-                                and abs(m.param_value - v) < 1e-4, since=since, timeout_s=2.0):
+                                and abs(m.param_value - v) < 1e-4, since=since, timeout_s=2.0, give_up=gone):
                         acked[name], later[name] = value, []
                     else:
                         later[name].append(value)
                     if n % 5 == 0 and proc.poll() is None:
                         plan = [(41.77, 123.43)] + [(round(41.77 + n * 1e-6, 6), round(123.43 + i * 1e-5, 6))
                                                     for i in range(3)]
-                        if gcs.upload(plan, timeout_s=2.0) == mav.MAV_MISSION_ACCEPTED:
+                        if gcs.upload(plan, timeout_s=2.0, give_up=gone) == mav.MAV_MISSION_ACCEPTED:
                             acked_plan, later_plans = plan, []
                         else:
                             later_plans.append(plan)
