@@ -118,6 +118,8 @@ class _Log:
     edge: int
     scale: FloatArray
     """Per-DOF RMS of the smoothed over-ground nu (free-run cost weights)."""
+    raw_basis: FloatArray
+    """(2, N, 3): the same bases unsmoothed (what a current adds to a free run over ground)."""
 
     def water_relative(self, cn: float, ce: float) -> tuple[FloatArray, FloatArray]:
         return (self.nu - cn * self.basis[0] - ce * self.basis[1],
@@ -133,10 +135,10 @@ def _prepare(rec: Record, window_s: float, polyorder: int = 3) -> _Log:
     def sg(x: FloatArray, deriv: int = 0) -> FloatArray:
         return np.asarray(savgol_filter(x, win, polyorder, deriv=deriv, delta=dt, axis=0, mode="interp"))
 
-    bases = [current_body(rec.psi_rad, 1.0, 0.0), current_body(rec.psi_rad, 0.0, 1.0)]
+    bases = np.stack([current_body(rec.psi_rad, 1.0, 0.0), current_body(rec.psi_rad, 0.0, 1.0)])
     nu = sg(rec.nu)
     return _Log(rec, nu, sg(rec.nu, 1), np.stack([sg(b) for b in bases]), np.stack([sg(b, 1) for b in bases]),
-                max(5, round(window_s / dt) | 1) // 2, np.sqrt(np.mean(nu**2, axis=0)) + 1e-3)
+                max(5, round(window_s / dt) | 1) // 2, np.sqrt(np.mean(nu**2, axis=0)) + 1e-3, bases)
 
 
 def _quick_fit(logs: Sequence[_Log], currents: FloatArray, c_thrust: float) -> QLPVModel:
@@ -314,11 +316,7 @@ def _output_error(logs: Sequence[_Log], currents: FloatArray, c_thrust: float, s
     stride = max(1, RESIDUAL_EVERY // sim_every)
     every = stride * sim_every
     sl = slice(None, None, sim_every)
-    raw_bases = []
-    for lg in logs:
-        assert lg.rec.psi_rad is not None
-        psi = lg.rec.psi_rad[::every]
-        raw_bases.append((current_body(psi, 1.0, 0.0), current_body(psi, 0.0, 1.0)))
+    raw_bases = [np.ascontiguousarray(lg.raw_basis[:, ::every]) for lg in logs]
     targets = [np.ascontiguousarray(lg.nu[::every]) for lg in logs]
     inputs = [tuple(np.ascontiguousarray(x[sl], dtype=float)
                     for x in (lg.rec.t_s, lg.rec.throttle, lg.rec.delta_rad)) for lg in logs]

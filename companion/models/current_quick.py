@@ -46,12 +46,6 @@ class QuickCost:
                          np.ascontiguousarray(lg.rec.throttle, dtype=float),
                          np.ascontiguousarray(lg.rec.delta_rad, dtype=float)) for lg in logs]
         self._nozzle = [(np.cos(delta_rad), np.sin(delta_rad)) for _, _, delta_rad in self._inputs]
-        self._raw_bases = []
-        for lg in logs:
-            assert lg.rec.psi_rad is not None
-            psi = lg.rec.psi_rad
-            self._raw_bases.append((np.stack([np.cos(psi), -np.sin(psi), np.zeros_like(psi)], axis=-1),
-                                    np.stack([np.sin(psi), np.cos(psi), np.zeros_like(psi)], axis=-1)))
 
     def _log_equations(self, k: int, cn: float, ce: float) -> tuple[FloatArray, FloatArray, int]:
         key = (k, cn, ce)
@@ -112,7 +106,7 @@ class QuickCost:
             cn, ce = np.ascontiguousarray(cand[:, 2 * k]), np.ascontiguousarray(cand[:, 2 * k + 1])
             nu_r0 = lg.nu[0] - cn[:, None] * lg.basis[0, 0] - ce[:, None] * lg.basis[1, 0]
             t_s, throttle, delta_rad = self._inputs[k]
-            b_n, b_e = self._raw_bases[k]
+            b_n, b_e = lg.raw_basis
             sq = over_ground_error_batch(t_s, nu_r0, throttle, delta_rad, thetas, self._c_thrust, NU_LIMIT,
                                          cn, ce, b_n, b_e, lg.nu)
             cost += np.sum(sq / len(t_s) / lg.scale**2, axis=1)
