@@ -146,8 +146,8 @@ class StreamRates:
 
     def due(self, now_s: float) -> list[int]:
         """Message ids whose time has come; their next time is scheduled."""
-        if self._next_s and len(self._next_s) == len(self._interval_s) \
-                and now_s + 1e-9 < min(self._next_s.values()):
+        earliest_s = self.next_due_s(now_s)
+        if earliest_s is not None and now_s + 1e-9 < earliest_s:
             return []  # nothing due (the common case on all but the link that set the wake-up)
         out: list[int] = []
         for msg_id, interval in self._interval_s.items():
