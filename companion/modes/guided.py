@@ -12,7 +12,14 @@ from __future__ import annotations
 
 from companion.messages import GuidedTarget, ModeNumber, NavState
 from companion.modes.base import ModeOutput
-from companion.modes.holding import ApproachTask, BrakingGoto, goto_task, hold_task
+from companion.modes.holding import (
+    ApproachTask,
+    BrakingGoto,
+    CreepWatch,
+    goto_task,
+    hold_task,
+    orbit_if_creeping,
+)
 from companion.modes.host import ModeHost
 from companion.modes.navigation import CircleTask, GotoTask, NavMode, StationTask, wp_speed_mps
 
@@ -30,6 +37,7 @@ class GuidedMode(NavMode):
 
     def enter(self, host: ModeHost) -> None:
         super().enter(host)
+        self.watch = CreepWatch()
         nav = host.nav()
         assert nav is not None
         self._target = None
@@ -50,7 +58,10 @@ class GuidedMode(NavMode):
             if self._target.radius_m and self._target.radius_m > 0:
                 self.task = CircleTask(params, point, self._target.radius_m)
             else:
-                self.task = hold_task(host, point, nav) or StationTask(params, point, nav.heading_rad)
+                self.task = (hold_task(host, point, nav)
+                             or StationTask(params, point, nav.heading_rad))
+        dt = self.dt(nav)
+        self.task = orbit_if_creeping(host, nav, self.task, self.watch, dt)
         if self.task is not None:
-            return self.run_task(host, nav, self.task)
+            return self.run_task(host, nav, self.task, dt)
         return None

@@ -17,9 +17,10 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import replace
+from typing import TypeVar
 
 from companion.control.target import ControlTarget
-from companion.guidance.geo import LocalFrame
+from companion.guidance.geo import LocalFrame, wrap_2pi, wrap_pi
 from companion.guidance.hold_params import HOLD_CURRENT, current_station_gains, orbit_gains
 from companion.guidance.holding import (
     CurrentStationKeeper,
@@ -28,6 +29,7 @@ from companion.guidance.holding import (
     orbit_clockwise,
     pick_strategy,
 )
+from companion.guidance.los import LosFollower
 from companion.messages import NavState
 from companion.modes.host import ModeHost
 from companion.modes.navigation import GotoTask
@@ -106,7 +108,10 @@ def _current_source(host: ModeHost) -> CurrentSource:
 
 def strategy(host: ModeHost) -> HoldStrategy:
     """How the point will be held with the estimate of this moment (LEGACY: without one, or
-    ``USV_HOLD_MODE`` 0)."""
+    ``USV_HOLD_MODE`` 0).  The choice is the water current's; wind against the current can leave
+    a drift weaker than the idle creep, which :class:`CreepWatch` finds on the point (the guidance
+    observer's drift, current plus the wind's sideways leeway, read 0.53 m/s in 1.2 m/s against
+    6 m/s of wind, where bow into the current held within 1.8 m)."""
     if int(host.params.get("USV_HOLD_MODE")) != HOLD_CURRENT:
         return HoldStrategy.LEGACY
     est = host.water_current
@@ -117,7 +122,8 @@ def strategy(host: ModeHost) -> HoldStrategy:
 
 def hold_task(host: ModeHost, point: tuple[float, float],
               nav: NavState) -> CurrentStationTask | OrbitTask | None:
-    """The task that holds ``point`` (lat, lon) in the current of this moment, ``None``: LEGACY."""
+    """The task that holds ``point`` (lat, lon) in the current of this moment (:func:`strategy`),
+    ``None``: LEGACY."""
     kind = strategy(host)
     est = host.water_current
     if kind == HoldStrategy.LEGACY or est is None:
@@ -131,6 +137,89 @@ def hold_task(host: ModeHost, point: tuple[float, float],
                      orbit_clockwise(nav.heading_rad, nav.r_radps, current))
 
 
+IDLE_THROTTLE = 0.02
+CREEP_MPS = 0.2
+ON_HEADING_RAD = math.radians(45.0)
+ORBIT_AFTER_S = 3.0
+"""The creep signature (:class:`CreepWatch`): the jet idles (throttle at most IDLE_THROTTLE), the
+bow is within ON_HEADING_RAD of the station heading and the boat still makes more than CREEP_MPS
+of headway, for ORBIT_AFTER_S net (leaky count)."""
+
+
+STALL_FAR_M = 4.0
+STALL_GAIN_M = 1.0
+STALL_S = 20.0
+
+
+class CreepWatch:
+    """Whether a station keeper holds a point the boat cannot stand on: the drift (current and
+    wind together) is weaker than the jet's idle creep, which the keeper cannot know beforehand
+    when the wind cancels part of the current.  Distance from the point is not evidence: a boat
+    that must turn round into a strong current, or that motors back up to its point, is off it
+    without the current being weak (``docs/tuning.md``)."""
+
+    def __init__(self) -> None:
+        self.evidence_s = 0.0
+        self._closest_m = math.inf
+        self._closest_t_s = math.nan
+
+    def stalled(self, host: ModeHost, nav: NavState, distance_m: float) -> bool:
+        """The jet idles more than :data:`STALL_FAR_M` off the point and the boat has come no
+        :data:`STALL_GAIN_M` closer for :data:`STALL_S`: the current does not set it back onto
+        the point and the keeper will not motor there (wind against the current left a 0.8 m/s
+        drift at about the idle creep; the boat sat 10-15 m off its point with the bow
+        swinging between the keeper's two headings, which the creep signature misses)."""
+        if distance_m < self._closest_m - STALL_GAIN_M or not math.isfinite(self._closest_t_s):
+            self._closest_m, self._closest_t_s = distance_m, nav.t_s
+        idle = host.control.mapper.throttle <= IDLE_THROTTLE
+        if not idle or distance_m <= STALL_FAR_M:
+            self._closest_m, self._closest_t_s = distance_m, nav.t_s
+            return False
+        return nav.t_s - self._closest_t_s > STALL_S
+
+    def count(self, failing: bool, dt_s: float, after_s: float) -> bool:
+        """Leaky evidence counter: True (and reset) after ``after_s`` of net failure."""
+        self.evidence_s = max(0.0, self.evidence_s + (dt_s if failing else -0.5 * dt_s))
+        if self.evidence_s > after_s:
+            self.evidence_s = 0.0
+            return True
+        return False
+
+    def creeping(self, host: ModeHost, nav: NavState, station_heading_rad: float, dt_s: float,
+                 after_s: float = ORBIT_AFTER_S) -> bool:
+        """True once the creep signature has lasted ``after_s`` (net)."""
+        at_idle = host.control.mapper.throttle <= IDLE_THROTTLE
+        on_heading = abs(wrap_pi(nav.heading_rad - station_heading_rad)) < ON_HEADING_RAD
+        return self.count(at_idle and on_heading and nav.u_mps > CREEP_MPS, dt_s, after_s)
+
+
+def orbit_instead(host: ModeHost, task: CurrentStationTask, nav: NavState) -> OrbitTask:
+    """The drift-compensated orbit round ``task``'s point, for a station keeper that creeps."""
+    current = task.current()
+    return OrbitTask(host.params, task.point, task.current.source, current,
+                     orbit_clockwise(nav.heading_rad, nav.r_radps, current))
+
+
+TaskT = TypeVar("TaskT")
+POINT_ORBIT_AFTER_S = 10.0
+"""GUIDED and RTL give their station keeper up after this much creep (net): where the wind
+against a 1.2 m/s current nearly cancels the idle creep, the keeper held within 1.8 m with brief
+spells of headway, and 3 s of them sent the boat orbiting 6 m wide; in 0.8 m/s against the same
+wind the boat idled 10-15 m off its point for minutes (usv bench nav tuning cells)."""
+
+
+def orbit_if_creeping(host: ModeHost, nav: NavState, task: TaskT, watch: CreepWatch,
+                      dt_s: float) -> TaskT | OrbitTask:
+    """``task``, or the orbit round its point (:func:`orbit_instead`) once it is a station keeper
+    that ``watch`` sees creep: the drift is weaker than the idle creep (GUIDED and RTL on their
+    point; LOITER runs its own choice)."""
+    if isinstance(task, CurrentStationTask) and (
+            watch.creeping(host, nav, task.keeper.heading_rad, dt_s, POINT_ORBIT_AFTER_S)
+            or watch.stalled(host, nav, task.distance_m)):
+        return orbit_instead(host, task, nav)
+    return task
+
+
 HANDOVER_FRACTION = 0.75
 """The last leg hands over to station keeping this fraction of ``USV_HOLD_BRAKE`` from the point."""
 UPSTREAM_COS = 0.5
@@ -138,10 +227,22 @@ UPSTREAM_COS = 0.5
 
 
 class ApproachTask:
-    """Go to ``end`` (lat, lon) so as to arrive bow into a strong current: when the direct leg
-    does not point upstream, first to a point ``USV_HOLD_BRAKE`` metres downstream of ``end``
-    (the turn into the current happens there, where its drift carries the boat away from the
-    point, not past it), then up the current to ``end``.  :attr:`reached` as the last leg's."""
+    """Go to ``end`` (lat, lon) so as to arrive bow into a strong current:
+
+    * the direct leg points within 60 degrees of upstream: flown as it is;
+    * the boat is downstream of ``end`` (but the leg is not that close to upstream): the leg up the
+      current into ``end`` from the point ``USV_HOLD_BRAKE`` metres downstream of it, which the LOS
+      follower joins from where the boat is;
+    * the boat is upstream of ``end`` (or level with it): no leg, :attr:`reached` at once; the
+      station keeper turns the bow into the current and lets the current set the boat back onto
+      ``end`` (a route round a point downstream of ``end`` ran the boat past it by the length of
+      the route's detour and turned it there, and a leg ending at ``D`` with the turn anticipated
+      handed over on the wrong side of ``end``).
+
+    :attr:`reached` within :data:`HANDOVER_FRACTION` of ``USV_HOLD_BRAKE`` of ``end`` (the station
+    keeper's approach-speed law, ``USV_STN_P`` x distance, brakes the boat onto it from there), or
+    when the leg passes ``end`` within ``USV_HOLD_BRAKE`` of it; a leg that ends farther off (the
+    boat swept past ``end`` far abeam) is planned again from where the boat is."""
 
     def __init__(self, params: ParamStore, start: tuple[float, float], end: tuple[float, float],
                  speed_mps: float, current_ne_mps: tuple[float, float],
@@ -149,41 +250,50 @@ class ApproachTask:
         self.frame = LocalFrame(*end)
         self.point = end
         self.end = end
-        s_n, s_e = self.frame.to_ne(*start)
+        self.params, self.speed_mps, self.accept_radius_m = params, speed_mps, accept_radius_m
         speed_c = math.hypot(*current_ne_mps)
-        up_n, up_e = -current_ne_mps[0] / speed_c, -current_ne_mps[1] / speed_c
-        leg = math.hypot(s_n, s_e)
-        points = [end]
-        if leg > 0.0 and (-s_n * up_n - s_e * up_e) / leg < UPSTREAM_COS:
-            back = params.get("USV_HOLD_BRAKE")
-            points.insert(0, self.frame.to_lat_lon(-up_n * back, -up_e * back))
-        self.legs = [GotoTask(params, start, points[0], speed_mps, accept_radius_m,
-                              next_point=points[1] if len(points) > 1 else None)]
-        if len(points) > 1:
-            self.legs.append(GotoTask(params, points[0], end, speed_mps, accept_radius_m,
-                                      follower=self.legs[0].follower))
-        self._leg = 0
-        self.handover_m = HANDOVER_FRACTION * params.get("USV_HOLD_BRAKE")
-        self.distance_m = math.inf
+        self.upstream_ne = (-current_ne_mps[0] / speed_c, -current_ne_mps[1] / speed_c)
+        self.brake_m = params.get("USV_HOLD_BRAKE")
+        self.handover_m = HANDOVER_FRACTION * self.brake_m
+        self.replans = 0
         self.cross_track_m = 0.0
+        self.leg: GotoTask | None = None
+        self.distance_m = math.inf
+        self._plan(start)
+
+    def _plan(self, start: tuple[float, float], follower: LosFollower | None = None) -> None:
+        s_n, s_e = self.frame.to_ne(*start)
+        self.distance_m = math.hypot(s_n, s_e)
+        up_n, up_e = self.upstream_ne
+        downstream_m = -s_n * up_n - s_e * up_e  # how far the boat is downstream of end
+        if self.distance_m == 0.0 or downstream_m / self.distance_m >= UPSTREAM_COS:
+            self.leg = GotoTask(self.params, start, self.end, self.speed_mps, self.accept_radius_m,
+                                follower=follower)
+        elif downstream_m > 0.0:
+            below = self.frame.to_lat_lon(-up_n * self.brake_m, -up_e * self.brake_m)
+            self.leg = GotoTask(self.params, below, self.end, self.speed_mps, self.accept_radius_m,
+                                follower=follower)
+        else:
+            self.leg = None
 
     @property
     def reached(self) -> bool:
-        """On the last leg (up the current) and within :data:`HANDOVER_FRACTION` of
-        ``USV_HOLD_BRAKE`` of the point: the station keeper's approach-speed law
-        (``USV_STN_P`` x distance) brakes the boat onto it from there."""
-        last = self.legs[-1]
-        return self._leg == len(self.legs) - 1 and (last.reached or self.distance_m <= self.handover_m)
+        if self.leg is None:
+            return True
+        passed = self.leg.reached and self.distance_m <= self.brake_m
+        return self.distance_m <= self.handover_m or passed
 
     def step(self, nav: NavState, dt_s: float) -> ControlTarget:
-        leg = self.legs[self._leg]
-        if leg.reached and self._leg < len(self.legs) - 1:
-            self._leg += 1
-            leg = self.legs[self._leg]
-        target = leg.step(nav, dt_s)
-        here = self.frame.to_ne(nav.lat_deg, nav.lon_deg)
-        self.distance_m = math.hypot(*here)
-        self.cross_track_m = leg.cross_track_m
+        here = (nav.lat_deg, nav.lon_deg)
+        if self.leg is not None and self.leg.reached and not self.reached:
+            self.replans += 1
+            self._plan(here, self.leg.follower)
+        if self.leg is None:  # upstream: bow into the current (the caller holds the point)
+            heading = math.atan2(self.upstream_ne[1], self.upstream_ne[0])
+            return ControlTarget(wrap_2pi(heading), 0.0, is_heading=True, hold_station=True)
+        target = self.leg.step(nav, dt_s)
+        self.distance_m = math.hypot(*self.frame.to_ne(*here))
+        self.cross_track_m = self.leg.cross_track_m
         return target
 
 
@@ -221,11 +331,12 @@ def goto_task(host: ModeHost, start: tuple[float, float], end: tuple[float, floa
     :class:`ApproachTask` (arrive bow into it), in a weaker one a :class:`BrakingGoto` (arrive at
     the orbit's speed), without an estimate the plain :class:`GotoTask`."""
     est = host.water_current
-    if strategy(host) == HoldStrategy.STATION and est is not None:
+    kind = strategy(host)
+    if kind == HoldStrategy.STATION and est is not None:
         current = (est.north_mps, est.east_mps)
         return ApproachTask(host.params, start, end, speed_mps, current, accept_radius_m)
     goto = GotoTask(host.params, start, end, speed_mps, accept_radius_m)
-    if strategy(host) == HoldStrategy.ORBIT and est is not None:
+    if kind == HoldStrategy.ORBIT and est is not None:
         leg_n, leg_e = goto.frame.to_ne(*end)
         leg_m = max(1e-6, math.hypot(leg_n, leg_e))
         along = (est.north_mps * leg_n + est.east_mps * leg_e) / leg_m

@@ -26,21 +26,21 @@ drifts to the edge of LOIT_RADIUS and drives back (issue 20842).
 
 from __future__ import annotations
 
-import math
-
 from companion.control.target import ControlRequest
-from companion.guidance.geo import wrap_pi
 from companion.messages import ModeNumber, NavState
 from companion.modes.base import ModeOutput, StandardMode
-from companion.modes.holding import CurrentStationTask, EngineStopTask, OrbitTask, engine_stop_task, hold_task
+from companion.modes.holding import (
+    CreepWatch,
+    CurrentStationTask,
+    EngineStopTask,
+    engine_stop_task,
+    hold_task,
+    orbit_instead,
+)
 from companion.modes.host import ModeHost
 from companion.modes.navigation import CircleTask, NavMode, StationTask, param
 
-IDLE_THROTTLE = 0.02
-ORBIT_AFTER_S = 3.0
 STATION_AFTER_S = 8.0
-CREEP_MPS = 0.2
-ON_HEADING_RAD = math.radians(45.0)
 
 
 class LoiterMode(NavMode):
@@ -52,7 +52,7 @@ class LoiterMode(NavMode):
     def __init__(self) -> None:
         super().__init__()
         self.point = (0.0, 0.0)
-        self._evidence_s = 0.0
+        self.watch = CreepWatch()
 
     def enter(self, host: ModeHost) -> None:
         super().enter(host)
@@ -61,7 +61,7 @@ class LoiterMode(NavMode):
         self.point = (nav.lat_deg, nav.lon_deg)
         self.task = (engine_stop_task(host, self.point, nav) or hold_task(host, self.point, nav)
                      or StationTask(host.params, self.point, nav.heading_rad))
-        self._evidence_s = 0.0
+        self.watch = CreepWatch()
 
     def _orbit_radius_m(self, host: ModeHost) -> float:
         params = host.params
@@ -76,27 +76,16 @@ class LoiterMode(NavMode):
         if isinstance(task, StationTask | CurrentStationTask):
             # the jet idles bow on its station heading and still makes headway: too weak a drift
             # (with the estimate: wind against the current can cancel what the estimate says)
-            at_idle = host.control.mapper.throttle <= IDLE_THROTTLE
-            on_heading = abs(wrap_pi(nav.heading_rad - task.keeper.heading_rad)) < ON_HEADING_RAD
-            creeping = at_idle and on_heading and nav.u_mps > CREEP_MPS
-            if self._count(creeping, dt, ORBIT_AFTER_S):
+            if self.watch.creeping(host, nav, task.keeper.heading_rad, dt):
                 if isinstance(task, CurrentStationTask):
-                    self.task = OrbitTask(host.params, self.point, task.current.source, task.current())
+                    self.task = orbit_instead(host, task, nav)
                 else:
                     self.task = CircleTask(host.params, self.point, self._orbit_radius_m(host))
         elif isinstance(task, CircleTask):
             # pushed off the circle by more than its radius: the current is too strong to orbit
             failing = task.on_circle_since_s is not None and abs(task.radial_error_m) > task.radius_m
-            if self._count(failing, dt, STATION_AFTER_S):
+            if self.watch.count(failing, dt, STATION_AFTER_S):
                 self.task = StationTask(host.params, self.point, nav.heading_rad)
         if self.task is not None:
             return self.run_task(host, nav, self.task, dt)
         return None
-
-    def _count(self, failing: bool, dt: float, after_s: float) -> bool:
-        """Leaky evidence counter: True (and reset) after ``after_s`` of net failure."""
-        self._evidence_s = max(0.0, self._evidence_s + (dt if failing else -0.5 * dt))
-        if self._evidence_s > after_s:
-            self._evidence_s = 0.0
-            return True
-        return False

@@ -5,7 +5,14 @@ from __future__ import annotations
 
 from companion.messages import ModeNumber, NavState
 from companion.modes.base import ModeOutput, StandardMode
-from companion.modes.holding import ApproachTask, BrakingGoto, goto_task, hold_task
+from companion.modes.holding import (
+    ApproachTask,
+    BrakingGoto,
+    CreepWatch,
+    goto_task,
+    hold_task,
+    orbit_if_creeping,
+)
 from companion.modes.host import ModeHost
 from companion.modes.navigation import GotoTask, NavMode, StationTask, param, wp_speed_mps
 
@@ -23,6 +30,7 @@ class RtlMode(NavMode):
 
     def enter(self, host: ModeHost) -> None:
         super().enter(host)
+        self.watch = CreepWatch()
         nav = host.nav()
         assert nav is not None and host.home is not None
         params = host.params
@@ -36,7 +44,10 @@ class RtlMode(NavMode):
             near = task.distance_m <= param(host.params, "WP_RADIUS")
             host.status("RTL: home reached, keeping station" if near
                         else f"RTL: {task.distance_m:.0f} m from home, bow into the current: braking onto it")
-            self.task = hold_task(host, task.end, nav) or StationTask(host.params, task.end, nav.heading_rad)
+            self.task = (hold_task(host, task.end, nav)
+                         or StationTask(host.params, task.end, nav.heading_rad))
+        dt = self.dt(nav)
+        self.task = orbit_if_creeping(host, nav, self.task, self.watch, dt)
         if self.task is not None:
-            return self.run_task(host, nav, self.task)
+            return self.run_task(host, nav, self.task, dt)
         return None
