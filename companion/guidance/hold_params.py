@@ -33,9 +33,10 @@ PARAMS: tuple[ParamDef, ...] = (
     ParamDef("USV_HOLD_DRIFT", 3.0, 1.0, 50.0, "m",
              "Engine-stop station keeping: drift this far from the point before restarting to return."),
     ParamDef("USV_HOLD_BRAKE", 12.0, 0.0, 100.0, "m",
-             "GUIDED/RTL in a current stronger than USV_HOLD_CREEP hand over from the leg to station "
-             "keeping this far from the point, so the boat turns bow into the current and backs down "
-             "onto the point instead of overshooting and looping back."),
+             "GUIDED/RTL in a current stronger than USV_HOLD_CREEP: coming from downstream, the boat "
+             "joins the line up the current into the point from this far below it and hands over to "
+             "station keeping at 0.75 x this, so it arrives bow into the current instead of "
+             "overshooting and looping back (from upstream the current sets it back onto the point)."),
 )
 
 

@@ -2,9 +2,9 @@
 
 The target is the host's ``guided_target`` (set by the MAVLink services).  The boat follows the leg
 from where it was when the target arrived to the target at WP_SPEED (or the target's speed),
-then holds it (:mod:`companion.modes.holding`: bow into a strong current, arriving from
-downstream; a drift-compensated orbit in a weak one; without a current estimate the station
-keeper); a target with a radius (DO_REPOSITION param3) is circled instead.
+then holds it (:mod:`companion.modes.holding`: bow into a strong current, arriving bow into it;
+a drift-compensated orbit in a weak one, or where the station keeper creeps; without a current
+estimate the station keeper); a target with a radius (DO_REPOSITION param3) is circled instead.
 Without a target the boat keeps station where GUIDED was entered.
 """
 

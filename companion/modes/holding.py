@@ -6,10 +6,13 @@ keeping station bow into the current (:class:`CurrentStationTask`, current stron
 ``USV_HOLD_CREEP``) or a drift-compensated orbit at ``USV_TURN_RAD`` (:class:`OrbitTask`); it
 returns ``None`` without an estimate or with ``USV_HOLD_MODE`` 0, and the mode then holds as it
 did before (its own :class:`~companion.modes.navigation.StationTask`).  :func:`goto_task` is the
-leg GUIDED and RTL fly to the point: in a strong current it arrives from ``USV_HOLD_BRAKE`` metres
-downstream, bow into the current, so the boat brakes onto the point instead of overshooting it
-and looping back (a jet cannot turn without thrust, and turning round at the point let the current
-carry it 13-28 m past).
+leg GUIDED and RTL fly to the point: in a strong current it arrives bow into the current, from
+downstream up the line into the point, or from upstream letting the current set it back
+(:class:`ApproachTask`), so the boat brakes onto the point instead of overshooting it and looping
+back (a jet cannot turn without thrust, and turning round at the point let the current carry it
+13-28 m past).  Wind against the current can leave a drift weaker than the idle creep, which the
+current estimate does not show: GUIDED and RTL then give the station keeper up for the orbit
+(:func:`orbit_if_creeping`), as LOITER does.
 """
 
 from __future__ import annotations
