@@ -44,6 +44,21 @@ def test_station_keeper_stems_the_current_at_once_and_backs_down_onto_the_point(
         assert abs((math.degrees(out.heading_rad) - 270.0 + 180.0) % 360.0 - 180.0) <= 70.0 + 1e-9
 
 
+def test_keeper_upstream_of_its_point_keeps_its_bow_on_one_side_of_upstream() -> None:
+    """Straight upstream of its point in 0.8 m/s, the keeper wants to go downstream: the bow is
+    clamped 70 deg off upstream, on the side it is already on, however the position jitters
+    across the line (the side picked by the sign of a near-180 deg angle flipped with every wave;
+    each flip a powered turn that took the boat upstream, 170 m in 700 s)."""
+    current = (0.0, 0.8)  # toward east: upstream is west (270 deg)
+    for start_deg, side in ((200.0, -1.0), (340.0, 1.0)):
+        keeper = CurrentStationKeeper((0.0, 0.0), math.radians(start_deg), CurrentStationGains(ki_per_s2=0.0))
+        for k in range(200):
+            jitter_m = 0.3 if k % 2 else -0.3  # across the line through the point along the current
+            out = keeper.update((jitter_m, -20.0), current, 0.1)
+            off = math.degrees(math.remainder(out.heading_rad - math.radians(270.0), 2 * math.pi))
+            assert off == pytest.approx(side * 70.0), (start_deg, k)
+
+
 @pytest.mark.parametrize("off_deg", [-70.0, -40.0, 20.0, 70.0])
 @pytest.mark.parametrize("along_mps", [-0.4, -0.1, 0.2])
 def test_clamped_surge_cap_makes_good_the_desired_speed_along_the_current(off_deg: float,
