@@ -258,7 +258,6 @@ class ApproachTask:
         self.upstream_ne = (-current_ne_mps[0] / speed_c, -current_ne_mps[1] / speed_c)
         self.brake_m = params.get("USV_HOLD_BRAKE")
         self.handover_m = HANDOVER_FRACTION * self.brake_m
-        self.replans = 0
         self.cross_track_m = 0.0
         self.leg: GotoTask | None = None
         self.distance_m = math.inf
@@ -289,7 +288,6 @@ class ApproachTask:
     def step(self, nav: NavState, dt_s: float) -> ControlTarget:
         here = (nav.lat_deg, nav.lon_deg)
         if self.leg is not None and self.leg.reached and not self.reached:
-            self.replans += 1
             self._plan(here, self.leg.follower)
         if self.leg is None:  # upstream: bow into the current (the caller holds the point)
             heading = math.atan2(self.upstream_ne[1], self.upstream_ne[0])

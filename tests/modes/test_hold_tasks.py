@@ -1,6 +1,9 @@
-"""GUIDED/RTL's approach in a current to be stemmed (:class:`~companion.modes.holding.ApproachTask`):
-from downstream the boat joins the line that runs up the current into its goal; from upstream it
-hands over to the station keeper at once, which lets the current set it back onto the goal."""
+"""GUIDED and RTL on their point in a current (:mod:`companion.modes.holding`), fast, without a plant.
+
+The approach in a current to be stemmed (:class:`~companion.modes.holding.ApproachTask`): from
+downstream the boat joins the line that runs up the current into its goal; from upstream it hands
+over to the station keeper at once, which lets the current set it back onto the goal.  The
+evidence that a station keeper cannot hold the point (:class:`~companion.modes.holding.CreepWatch`)."""
 
 from __future__ import annotations
 
