@@ -12,14 +12,8 @@ from __future__ import annotations
 
 from companion.messages import GuidedTarget, ModeNumber, NavState
 from companion.modes.base import ModeOutput
-from companion.modes.holding import (
-    ApproachTask,
-    BrakingGoto,
-    CreepWatch,
-    goto_task,
-    hold_task,
-    orbit_if_creeping,
-)
+from companion.modes.creep import CreepWatch, orbit_if_creeping
+from companion.modes.holding import ApproachTask, BrakingGoto, goto_task, hold_task
 from companion.modes.host import ModeHost
 from companion.modes.navigation import CircleTask, GotoTask, NavMode, StationTask, wp_speed_mps
 

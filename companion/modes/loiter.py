@@ -29,14 +29,8 @@ from __future__ import annotations
 from companion.control.target import ControlRequest
 from companion.messages import ModeNumber, NavState
 from companion.modes.base import ModeOutput, StandardMode
-from companion.modes.holding import (
-    CreepWatch,
-    CurrentStationTask,
-    EngineStopTask,
-    engine_stop_task,
-    hold_task,
-    orbit_instead,
-)
+from companion.modes.creep import CreepWatch, orbit_instead
+from companion.modes.holding import CurrentStationTask, EngineStopTask, engine_stop_task, hold_task
 from companion.modes.host import ModeHost
 from companion.modes.navigation import CircleTask, NavMode, StationTask, param
 

@@ -11,7 +11,8 @@ import math
 
 from companion.guidance.geo import LocalFrame, distance_bearing
 from companion.messages import NavState
-from companion.modes.holding import ApproachTask, CreepWatch
+from companion.modes.creep import CreepWatch
+from companion.modes.holding import ApproachTask
 from companion.param_table import all_param_defs
 from companion.params import ParamStore
 

@@ -1,0 +1,100 @@
+"""Evidence that a station keeper cannot hold its point (:class:`CreepWatch`), and the orbit
+that takes over (:func:`orbit_if_creeping`; LOITER, GUIDED, RTL).
+
+The hold-or-orbit choice of :mod:`companion.modes.holding` is made from the water-current
+estimate, which does not show the wind: wind against the current can leave a drift weaker than
+the jet's idle creep, and then the boat cannot stand on its point bow into the current.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TypeVar
+
+from companion.guidance.geo import wrap_pi
+from companion.guidance.holding import orbit_clockwise
+from companion.messages import NavState
+from companion.modes.holding import CurrentStationTask, OrbitTask
+from companion.modes.host import ModeHost
+
+IDLE_THROTTLE = 0.02
+CREEP_MPS = 0.2
+ON_HEADING_RAD = math.radians(45.0)
+ORBIT_AFTER_S = 3.0
+"""The creep signature (:class:`CreepWatch`): the jet idles (throttle at most IDLE_THROTTLE), the
+bow is within ON_HEADING_RAD of the station heading and the boat still makes more than CREEP_MPS
+of headway, for ORBIT_AFTER_S net (leaky count)."""
+
+
+STALL_FAR_M = 4.0
+STALL_GAIN_M = 1.0
+STALL_S = 20.0
+
+
+class CreepWatch:
+    """Whether a station keeper holds a point the boat cannot stand on: the drift (current and
+    wind together) is weaker than the jet's idle creep, which the keeper cannot know beforehand
+    when the wind cancels part of the current.  Distance from the point is not evidence: a boat
+    that must turn round into a strong current, or that motors back up to its point, is off it
+    without the current being weak (``docs/tuning.md``)."""
+
+    def __init__(self) -> None:
+        self.evidence_s = 0.0
+        self._closest_m = math.inf
+        self._closest_t_s = math.nan
+
+    def stalled(self, host: ModeHost, nav: NavState, distance_m: float) -> bool:
+        """The jet idles more than :data:`STALL_FAR_M` off the point and the boat has come no
+        :data:`STALL_GAIN_M` closer for :data:`STALL_S`: the current does not set it back onto
+        the point and the keeper will not motor there (wind against the current left a 0.8 m/s
+        drift at about the idle creep; the boat sat 10-15 m off its point with the bow
+        swinging between the keeper's two headings, which the creep signature misses)."""
+        if distance_m < self._closest_m - STALL_GAIN_M or not math.isfinite(self._closest_t_s):
+            self._closest_m, self._closest_t_s = distance_m, nav.t_s
+        idle = host.control.mapper.throttle <= IDLE_THROTTLE
+        if not idle or distance_m <= STALL_FAR_M:
+            self._closest_m, self._closest_t_s = distance_m, nav.t_s
+            return False
+        return nav.t_s - self._closest_t_s > STALL_S
+
+    def count(self, failing: bool, dt_s: float, after_s: float) -> bool:
+        """Leaky evidence counter: True (and reset) after ``after_s`` of net failure."""
+        self.evidence_s = max(0.0, self.evidence_s + (dt_s if failing else -0.5 * dt_s))
+        if self.evidence_s > after_s:
+            self.evidence_s = 0.0
+            return True
+        return False
+
+    def creeping(self, host: ModeHost, nav: NavState, station_heading_rad: float, dt_s: float,
+                 after_s: float = ORBIT_AFTER_S) -> bool:
+        """True once the creep signature has lasted ``after_s`` (net)."""
+        at_idle = host.control.mapper.throttle <= IDLE_THROTTLE
+        on_heading = abs(wrap_pi(nav.heading_rad - station_heading_rad)) < ON_HEADING_RAD
+        return self.count(at_idle and on_heading and nav.u_mps > CREEP_MPS, dt_s, after_s)
+
+
+def orbit_instead(host: ModeHost, task: CurrentStationTask, nav: NavState) -> OrbitTask:
+    """The drift-compensated orbit round ``task``'s point, for a station keeper that creeps."""
+    current = task.current()
+    return OrbitTask(host.params, task.point, task.current.source, current,
+                     orbit_clockwise(nav.heading_rad, nav.r_radps, current))
+
+
+TaskT = TypeVar("TaskT")
+POINT_ORBIT_AFTER_S = 10.0
+"""GUIDED and RTL give their station keeper up after this much creep (net): where the wind
+against a 1.2 m/s current nearly cancels the idle creep, the keeper held within 1.8 m with brief
+spells of headway, and 3 s of them sent the boat orbiting 6 m wide; in 0.8 m/s against the same
+wind the boat idled 10-15 m off its point for minutes (usv bench nav tuning cells)."""
+
+
+def orbit_if_creeping(host: ModeHost, nav: NavState, task: TaskT, watch: CreepWatch,
+                      dt_s: float) -> TaskT | OrbitTask:
+    """``task``, or the orbit round its point (:func:`orbit_instead`) once it is a station keeper
+    that ``watch`` sees creep: the drift is weaker than the idle creep (GUIDED and RTL on their
+    point; LOITER runs its own choice)."""
+    if isinstance(task, CurrentStationTask) and (
+            watch.creeping(host, nav, task.keeper.heading_rad, dt_s, POINT_ORBIT_AFTER_S)
+            or watch.stalled(host, nav, task.distance_m)):
+        return orbit_instead(host, task, nav)
+    return task
