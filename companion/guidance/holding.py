@@ -98,9 +98,8 @@ class CurrentStationGains:
 
 DOWNSTREAM_SIDE_RAD = math.radians(30.0)
 """A desired water velocity within this of straight downstream is clamped on the side of upstream
-the bow is already on (:class:`CurrentStationKeeper`).  Picked by the sign of the angle, the side
-flipped back and forth: each flip a powered turn of 140 deg, and in 0.8 m/s the boat worked its
-way 170 m upstream of a sampling point in 700 s (usv bench nav, calm 0.8 m/s cell)."""
+the bow is already on (:class:`CurrentStationKeeper`): either side serves, and one picked by the
+sign of a near-180 deg angle flips with every wave, each flip a powered turn (``docs/tuning.md``)."""
 
 
 class CurrentStationKeeper:

@@ -46,9 +46,8 @@ class CreepWatch:
     def stalled(self, host: ModeHost, nav: NavState, distance_m: float) -> bool:
         """The jet idles more than :data:`STALL_FAR_M` off the point and the boat has come no
         :data:`STALL_GAIN_M` closer for :data:`STALL_S`: the current does not set it back onto
-        the point and the keeper will not motor there (wind against the current left a 0.8 m/s
-        drift at about the idle creep; the boat sat 10-15 m off its point with the bow
-        swinging between the keeper's two headings, which the creep signature misses)."""
+        the point and the keeper will not motor there.  Catches a boat whose bow swings between
+        the keeper's two headings, which the creep signature misses (``docs/tuning.md``)."""
         if distance_m < self._closest_m - STALL_GAIN_M or not math.isfinite(self._closest_t_s):
             self._closest_m, self._closest_t_s = distance_m, nav.t_s
         idle = host.control.mapper.throttle <= IDLE_THROTTLE
@@ -82,10 +81,9 @@ def orbit_instead(host: ModeHost, task: CurrentStationTask, nav: NavState) -> Or
 
 TaskT = TypeVar("TaskT")
 POINT_ORBIT_AFTER_S = 10.0
-"""GUIDED and RTL give their station keeper up after this much creep (net): where the wind
-against a 1.2 m/s current nearly cancels the idle creep, the keeper held within 1.8 m with brief
-spells of headway, and 3 s of them sent the boat orbiting 6 m wide; in 0.8 m/s against the same
-wind the boat idled 10-15 m off its point for minutes (usv bench nav tuning cells)."""
+"""GUIDED and RTL give their station keeper up after this much creep (net), longer than LOITER's
+:data:`ORBIT_AFTER_S`: a keeper that holds with brief spells of headway (wind nearly cancelling
+the idle creep) is left holding (``docs/tuning.md``)."""
 
 
 def orbit_if_creeping(host: ModeHost, nav: NavState, task: TaskT, watch: CreepWatch,

@@ -112,8 +112,8 @@ def strategy(host: ModeHost) -> HoldStrategy:
     """How the point will be held with the estimate of this moment (LEGACY: without one, or
     ``USV_HOLD_MODE`` 0).  The choice is the water current's; wind against the current can leave
     a drift weaker than the idle creep, which :class:`~companion.modes.creep.CreepWatch` finds on
-    the point (the guidance observer's drift, current plus the wind's sideways leeway, read
-    0.53 m/s in 1.2 m/s against 6 m/s of wind, where bow into the current held within 1.8 m)."""
+    the point (the guidance observer's drift is no substitute: it sees the wind's sideways leeway,
+    not its push along the bow; ``docs/tuning.md``)."""
     if int(host.params.get("USV_HOLD_MODE")) != HOLD_CURRENT:
         return HoldStrategy.LEGACY
     est = host.water_current
@@ -154,9 +154,8 @@ class ApproachTask:
       follower joins from where the boat is;
     * the boat is upstream of ``end`` (or level with it): no leg, :attr:`reached` at once; the
       station keeper turns the bow into the current and lets the current set the boat back onto
-      ``end`` (a route round a point downstream of ``end`` ran the boat past it by the length of
-      the route's detour and turned it there, and a leg ending at ``D`` with the turn anticipated
-      handed over on the wrong side of ``end``).
+      ``end`` (no route round a point downstream of ``end``: its detour runs the boat past ``end``;
+      ``docs/tuning.md``).
 
     :attr:`reached` within :data:`HANDOVER_FRACTION` of ``USV_HOLD_BRAKE`` of ``end`` (the station
     keeper's approach-speed law, ``USV_STN_P`` x distance, brakes the boat onto it from there), or
