@@ -41,18 +41,16 @@ class CreepWatch:
     def __init__(self) -> None:
         self.evidence_s = 0.0
         self._closest_m = math.inf
-        self._closest_t_s = math.nan
+        self._closest_t_s = 0.0
 
     def stalled(self, host: ModeHost, nav: NavState, distance_m: float) -> bool:
         """The jet idles more than :data:`STALL_FAR_M` off the point and the boat has come no
         :data:`STALL_GAIN_M` closer for :data:`STALL_S`: the current does not set it back onto
         the point and the keeper will not motor there.  Catches a boat whose bow swings between
         the keeper's two headings, which the creep signature misses (``docs/tuning.md``)."""
-        if distance_m < self._closest_m - STALL_GAIN_M or not math.isfinite(self._closest_t_s):
-            self._closest_m, self._closest_t_s = distance_m, nav.t_s
         idle = host.control.mapper.throttle <= IDLE_THROTTLE
-        if not idle or distance_m <= STALL_FAR_M:
-            self._closest_m, self._closest_t_s = distance_m, nav.t_s
+        if not idle or distance_m <= STALL_FAR_M or distance_m < self._closest_m - STALL_GAIN_M:
+            self._closest_m, self._closest_t_s = distance_m, nav.t_s  # (re)start the clock here
             return False
         return nav.t_s - self._closest_t_s > STALL_S
 
