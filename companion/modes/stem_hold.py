@@ -23,7 +23,10 @@ STEM_POWERED_TURN_RAD = math.radians(60.0)
 heading the station keeper wants: at idle the turn is slow and a strong current sweeps the boat
 tens of metres downstream before the bow is into it (measured: 45 m in 1.2 m/s).  Not below the
 idle creep: there the creep turns the boat, and at the corner speed the keeper's heading, 70 deg
-off upstream, ran it 10 m off the circle in a straight line."""
+off upstream, ran it 10 m off the circle in a straight line.  Nor upstream of the hold point (by
+more than :data:`STEM_UPSTREAM_IDLE_M`): there the current brings the boat back while it turns at
+idle, whereas a powered turn drives it farther up (``docs/tuning.md``)."""
+STEM_UPSTREAM_IDLE_M = 1.0
 
 
 CREEP_ABEAM_M = 8.0
@@ -116,6 +119,12 @@ class StemHold:
             return None
         return cls(params, radius_m, current_ne_mps, pos_ne, heading_rad)
 
+    def _downstream_of_hold_m(self, pos_ne: tuple[float, float]) -> float:
+        """How far the boat is downstream of the hold point along the current (m; negative: upstream)."""
+        cn, ce = self.current_ne_mps
+        speed = max(math.hypot(cn, ce), 1e-6)
+        return ((pos_ne[0] - self.hold_ne[0]) * cn + (pos_ne[1] - self.hold_ne[1]) * ce) / speed
+
     def _set_leg(self, pos_ne: tuple[float, float]) -> None:
         start = pos_ne if self._leg == 0 else self.route[self._leg - 1]
         nxt = self.route[self._leg + 1] if self._leg + 1 < len(self.route) else None
@@ -143,7 +152,8 @@ class StemHold:
         err = wrap_pi(out.heading_rad - nav.heading_rad)
         if self.below_creep and abs(err) < CREEP_CAP_WITHIN_RAD:
             speed = min(speed, out.surge_cap_mps)
-        if abs(err) > STEM_POWERED_TURN_RAD and not self.below_creep:
+        if abs(err) > STEM_POWERED_TURN_RAD and not self.below_creep \
+                and self._downstream_of_hold_m(pos_ne) > -STEM_UPSTREAM_IDLE_M:
             speed = max(speed, self.legs.cfg.turn_speed_mps)  # turn under power, not at idle
         # a turn of about 180 deg keeps the direction it started in (near +-pi the sign of the
         # heading error flips with every wave and the boat ran on straight, 60 m downstream)

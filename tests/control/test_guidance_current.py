@@ -170,6 +170,30 @@ def test_stem_route_below_creep_turns_the_hold_point_downstream_on_the_circle() 
         assert abs(math.hypot(hold[0], hold[1] - 0.1 * k) - 2.0) <= 0.3
 
 
+def test_hold_on_the_circle_turns_under_power_only_where_the_current_sweeps_the_boat_off() -> None:
+    """Bow downstream, 180 deg off the keeper's heading, in 1.2 m/s (above the idle creep): 4 m
+    downstream of its hold point the boat turns at the corner speed (at idle the current sweeps it
+    away while the bow comes round); 4 m upstream it turns at idle, and the current brings it back
+    (a powered turn there drove it farther upstream, turn after turn, and the item never ended)."""
+    params = ParamStore(all_param_defs())
+    turn_speed_mps = params.get("USV_WP_TURN_SPD")
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    speeds = {}
+    for side, east_m in (("downstream", 4.0), ("upstream", -4.0)):
+        obs = CurrentObserver()
+        _run(obs, 0.0, 3.0, (0.0, 1.2), 30.0)
+        _run(obs, math.pi / 2, 3.0, (0.0, 1.2), 30.0)
+        task = CircleTask(params, point, 2.0, drift=obs)
+        task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+        assert task.stem is not None and not task.stem.below_creep
+        task.stem.holding = True  # as if the leg to the abeam point were done
+        hold_n, hold_e = task.stem.hold_ne
+        speeds[side] = task.step(_nav(frame, hold_n, hold_e + east_m, 0.0, 0.5), 0.1).speed_mps
+    assert speeds["downstream"] >= turn_speed_mps
+    assert speeds["upstream"] < 0.5 * turn_speed_mps
+
+
 def _creep_params(limit_mps: float) -> ParamStore:
     params = ParamStore(all_param_defs())
     params.set("USV_CIRC_HOLD_C", limit_mps)
