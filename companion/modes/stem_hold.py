@@ -27,6 +27,15 @@ off upstream, ran it 10 m off the circle in a straight line.  Nor upstream of th
 more than :data:`STEM_UPSTREAM_IDLE_M`): there the current brings the boat back while it turns at
 idle, whereas a powered turn drives it farther up (``docs/tuning.md``)."""
 STEM_UPSTREAM_IDLE_M = 1.0
+STEM_DROP_BACK_M = 5.0
+"""A boat that starts the hold more than this upstream of the hold point (and more upstream than
+across the current from it) drops back onto the point under the station keeper at once, as GUIDED's
+approach does from upstream (:class:`~companion.modes.holding.ApproachTask`).  The legs to the abeam
+point ran it past the circle at the leg speed plus the current, and its turn into the current
+downstream of the circle swept it 20 m off (``docs/tuning.md``) ..."""
+STEM_DROP_BACK_BOW_RAD = math.radians(80.0)
+"""... unless its bow points within this of downstream: running down the current at speed (the
+hold picked on the way to the point), it coasted through the circle while it turned at idle."""
 
 
 CREEP_ABEAM_M = 8.0
@@ -97,7 +106,9 @@ class StemHold:
         if self.below_creep:
             gains = replace(gains, ki_per_s2=CREEP_KEEPER_KI_PER_S2)
         self.keeper = CurrentStationKeeper(self.hold_ne, heading_rad, gains)
-        self.holding = False
+        self.holding = not self.below_creep and self._drops_back(pos_ne, heading_rad)
+        """The keeper flies from the start when the boat is well upstream of the hold point
+        (:data:`STEM_DROP_BACK_M`): the current sets it back onto the point, bow into it."""
         self.keeper_s = 0.0
         """Seconds since the keeper took over from the legs."""
         self.on_hold = False
@@ -118,6 +129,16 @@ class StemHold:
         if (math.hypot(*current_ne_mps) if strength_mps is None else strength_mps) < limit:
             return None
         return cls(params, radius_m, current_ne_mps, pos_ne, heading_rad)
+
+    def _drops_back(self, pos_ne: tuple[float, float], heading_rad: float) -> bool:
+        """More than :data:`STEM_DROP_BACK_M` upstream of the hold point, more upstream than across
+        the current from it, and the bow not within :data:`STEM_DROP_BACK_BOW_RAD` of downstream."""
+        cn, ce = self.current_ne_mps
+        speed = max(math.hypot(cn, ce), 1e-6)
+        across_m = abs(-(pos_ne[0] - self.hold_ne[0]) * ce + (pos_ne[1] - self.hold_ne[1]) * cn) / speed
+        bow_off_downstream = abs(wrap_pi(heading_rad - math.atan2(ce, cn)))
+        return (-self._downstream_of_hold_m(pos_ne) > max(STEM_DROP_BACK_M, across_m)
+                and bow_off_downstream > STEM_DROP_BACK_BOW_RAD)
 
     def _downstream_of_hold_m(self, pos_ne: tuple[float, float]) -> float:
         """How far the boat is downstream of the hold point along the current (m; negative: upstream)."""

@@ -194,6 +194,33 @@ def test_hold_on_the_circle_turns_under_power_only_where_the_current_sweeps_the_
     assert speeds["upstream"] < 0.5 * turn_speed_mps
 
 
+@pytest.mark.parametrize(("north_m", "bow_deg", "drops_back"), [
+    (-20.0, 270.0, True),   # 20 m upstream, bow across: the keeper at once, bow into the current
+    (-20.0, 0.0, False),    # running down the current: the legs round the circle, not a coast through it
+    (-3.0, 270.0, False),   # not far enough upstream to turn
+    (15.0, 270.0, False),   # downstream: the legs to the abeam point
+])
+def test_hold_on_the_circle_drops_back_from_upstream_under_the_keeper(north_m: float, bow_deg: float,
+                                                                     drops_back: bool) -> None:
+    """Current 1.2 m/s toward north.  A boat well upstream of the circle, its bow not pointing down
+    the current, is handed to the station keeper at once and the current sets it back onto the
+    hold point (the legs to the abeam point ran it past the circle at speed and it was swept 20 m
+    off while turning into the current)."""
+    params = ParamStore(all_param_defs())
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    obs = CurrentObserver()
+    _run(obs, 0.0, 3.0, (1.2, 0.0), 30.0)
+    _run(obs, math.pi / 2, 3.0, (1.2, 0.0), 30.0)
+    task = CircleTask(params, point, 2.0, drift=obs)
+    bow = math.radians(bow_deg)
+    target = task.step(_nav(frame, north_m, -1.0, 0.5 * math.cos(bow), 0.5 * math.sin(bow)), 0.1)
+    assert task.stem is not None and not task.stem.below_creep
+    assert target.hold_station is drops_back
+    if drops_back:
+        assert math.cos(target.course_rad) < -0.3  # bow into the current (upstream is south)
+
+
 def _creep_params(limit_mps: float) -> ParamStore:
     params = ParamStore(all_param_defs())
     params.set("USV_CIRC_HOLD_C", limit_mps)
