@@ -33,6 +33,12 @@ across the current from it) drops back onto the point under the station keeper a
 approach does from upstream (:class:`~companion.modes.holding.ApproachTask`).  The legs to the abeam
 point ran it past the circle at the leg speed plus the current, and its turn into the current
 downstream of the circle swept it 20 m off (``docs/tuning.md``) ..."""
+STEM_NEAR_CIRCLE_M = 0.5
+STEM_REACH_S = 60.0
+"""Above the idle creep a hold whose boat has not come within STEM_NEAR_CIRCLE_M outside the circle
+this long after the station keeper took over is given up, like the hold below the creep
+(:data:`CREEP_REACH_S`): with wind against 0.8 m/s the keeper idled 4-5 m from the point for
+500 s and the bottle never filled (``docs/tuning.md``)."""
 STEM_DROP_BACK_BOW_RAD = math.radians(80.0)
 """... unless its bow points within this of downstream: running down the current at speed (the
 hold picked on the way to the point), it coasted through the circle while it turned at idle."""
@@ -110,11 +116,16 @@ class StemHold:
         """The keeper flies from the start when the boat is well upstream of the hold point
         (:data:`STEM_DROP_BACK_M`): the current sets it back onto the point, bow into it."""
         self.keeper_s = 0.0
+        self.radius_m = radius_m
+        self.near_circle = False
+        """The boat has been within :data:`STEM_NEAR_CIRCLE_M` outside the circle while holding."""
         """Seconds since the keeper took over from the legs."""
         self.on_hold = False
         """The boat has been within :data:`CREEP_ON_HOLD_M` of the hold point."""
         self.lost = False
-        """Set when a hold below the idle creep has crept off (:data:`CREEP_LOST_M`): circle instead."""
+        """Set when the hold is given up for circling: below the idle creep when it has crept off
+        (:data:`CREEP_LOST_M`); either side of it when it never got near its point
+        (:data:`CREEP_REACH_S`, :data:`STEM_REACH_S`)."""
         self._turn_sign = 0.0
 
     @classmethod
@@ -165,8 +176,11 @@ class StemHold:
         off_m = math.dist(pos_ne, self.hold_ne)
         self.keeper_s += dt_s
         self.on_hold = self.on_hold or off_m < CREEP_ON_HOLD_M
+        self.near_circle = self.near_circle or math.hypot(*pos_ne) <= self.radius_m + STEM_NEAR_CIRCLE_M
         if self.below_creep and (off_m > (CREEP_LOST_M if self.on_hold else CREEP_RUNAWAY_M)
                                  or (not self.on_hold and self.keeper_s > CREEP_REACH_S)):
+            self.lost = True
+        if not self.below_creep and not self.near_circle and self.keeper_s > STEM_REACH_S:
             self.lost = True
         out = self.keeper.update(pos_ne, self.current_ne_mps, dt_s)
         speed, heading = out.surge_speed_mps, out.heading_rad

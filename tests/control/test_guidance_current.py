@@ -298,6 +298,42 @@ def test_hold_below_the_creep_that_never_reaches_its_point_is_given_up_after_a_m
     assert task.stem is None and task.circling
 
 
+def test_hold_above_the_creep_that_never_gets_near_the_circle_is_given_up_after_a_minute() -> None:
+    """0.8 m/s (above the idle creep) with wind against it: the keeper stalls 3 m off its hold
+    point, 2.5 m or more outside the circle, and the bottle would never fill.  After 60 s the hold
+    is flown once more, then the item circles; a stalled boat that has once been near the circle
+    (within 0.5 m of it) keeps its hold."""
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    obs = CurrentObserver()
+    _run(obs, 0.0, 3.0, (0.0, 0.8), 30.0)
+    _run(obs, math.pi / 2, 3.0, (0.0, 0.8), 30.0)
+    task = CircleTask(ParamStore(all_param_defs()), point, 2.0, drift=obs)
+    task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    for _attempt in range(2):
+        stem = task.stem
+        assert stem is not None and not stem.below_creep and not task.circling
+        stem.holding = True  # as if the legs were done
+        stalled = _nav(frame, stem.hold_ne[0] - 3.0, stem.hold_ne[1], 0.0, 0.0)
+        for _ in range(590):
+            task.step(stalled, 0.1)
+        assert task.stem is stem  # 59 s: still trying
+        for _ in range(20):
+            task.step(stalled, 0.1)
+        assert task.stem is not stem
+    assert task.stem is None and task.circling
+    kept = CircleTask(ParamStore(all_param_defs()), point, 2.0, drift=obs)
+    kept.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    stem = kept.stem
+    assert stem is not None
+    stem.holding = True
+    kept.step(_nav(frame, *stem.hold_ne, 0.0, 0.0), 0.1)  # on its point once
+    stalled = _nav(frame, stem.hold_ne[0] - 3.0, stem.hold_ne[1], 0.0, 0.0)
+    for _ in range(1200):
+        kept.step(stalled, 0.1)
+    assert kept.stem is stem and not kept.circling
+
+
 @pytest.mark.parametrize(("heading_deg", "inside", "sign"), [(180.0, 1.0, -1.0), (180.0, -1.0, 1.0),
                                                              (170.0, 1.0, -1.0), (190.0, -1.0, 1.0)])
 def test_u_turn_onto_a_leg_turns_toward_the_inside_of_the_route(heading_deg: float, inside: float,
