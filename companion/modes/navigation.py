@@ -159,6 +159,10 @@ class StationTask:
 ESTIMATE_AGREE_MPS = 0.15
 """The estimator's current counts for the choice when it is within this of the observer's on every
 axis the observer has seen (:meth:`~companion.guidance.current.CurrentObserver.agrees`)."""
+ESTIMATE_STRONG_MARGIN_MPS = 0.3
+"""The estimator's current picks the hold on its own when it is at least this above
+``USV_CIRC_HOLD_C``: wind can cancel that much of it only rarely, and the observer, which learns the
+drift only across the bow, can read under the threshold after a hold (``docs/tuning.md``)."""
 DECIDE_OUTSIDE_M = 8.0
 """A circle item chooses between circling and holding on the circle until the boat is this close
 to the circle (the hold's route starts with a point up to this far out)."""
@@ -246,14 +250,19 @@ class CircleTask:
         0.3-0.4 m/s at times in 0.5 m/s).  The estimator counts only below the idle creep
         (``USV_HOLD_CREEP``): the hold that stems a stronger current is chosen on the observer alone,
         as before (in 0.8 m/s against 5 m/s of wind the estimator's 0.8 m/s, which has no leeway,
-        picked it at the first point and the boat never got onto the circle in 900 s)."""
+        picked it at the first point and the boat never got onto the circle in 900 s), unless it is
+        :data:`ESTIMATE_STRONG_MARGIN_MPS` above ``USV_CIRC_HOLD_C``: then it counts too, and is the
+        hold's current until the observer has converged."""
         observed = self.drift.current_ne_mps if self.drift is not None and self.drift.converged else None
-        estimated = self.water_current() if self.water_current is not None else None
+        raw = estimated = self.water_current() if self.water_current is not None else None
         if estimated is not None and (
                 math.hypot(*estimated) >= self.params.get_or("USV_HOLD_CREEP", 0.0)
                 or (self.drift is not None and not self.drift.agrees(estimated, ESTIMATE_AGREE_MPS))):
             estimated = None
         strength = max((math.hypot(*c) for c in (observed, estimated) if c is not None), default=0.0)
+        strong_mps = self.params.get_or("USV_CIRC_HOLD_C", 0.0) + ESTIMATE_STRONG_MARGIN_MPS
+        if raw is not None and math.hypot(*raw) >= max(strong_mps, strength):
+            return (observed or raw), math.hypot(*raw)
         return (observed or estimated), strength
 
     def time_on_circle_s(self, now_s: float) -> float:

@@ -107,7 +107,10 @@ def test_circle_item_holds_on_the_circle_only_in_a_current_it_cannot_circle_in(c
 def test_circle_item_picks_the_hold_from_the_estimator_before_the_observer_has_converged() -> None:
     """After one straight leg the observer knows only the current across it: the estimator's
     (confident, agreeing) current below the idle creep decides, so the first sampling point is held
-    too (USV_CIRC_HOLD_C below the creep); a stronger estimate is left to the observer, as before."""
+    too (USV_CIRC_HOLD_C below the creep); an estimate above the creep is left to the observer
+    unless it is 0.3 m/s above USV_CIRC_HOLD_C (0.7 m/s): the boat then holds at once, also when the
+    converged observer reads less (it learns the drift only across the bow, and after a hold it
+    read under the threshold: the boat ran through the next point at 4 m/s before it held)."""
     params = ParamStore(all_param_defs())
     params.set("USV_CIRC_HOLD_C", 0.4)
     obs = CurrentObserver()
@@ -124,10 +127,23 @@ def test_circle_item_picks_the_hold_from_the_estimator_before_the_observer_has_c
     disagrees = CircleTask(params, point, 2.0, drift=obs, water_current=lambda: (0.0, 0.1))
     disagrees.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
     assert disagrees.stem is None
+    above_creep = CircleTask(ParamStore(all_param_defs()), point, 2.0, drift=CurrentObserver(),
+                             water_current=lambda: (0.0, 0.9))
+    above_creep.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    assert above_creep.stem is None
     strong = CircleTask(ParamStore(all_param_defs()), point, 2.0, drift=CurrentObserver(),
                         water_current=lambda: (0.0, 1.2))
     strong.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
-    assert strong.stem is None
+    assert strong.stem is not None and strong.stem.current_ne_mps == (0.0, 1.2)
+    weak_reading = CurrentObserver()
+    _run(weak_reading, 0.0, 3.0, (0.0, 0.5), 30.0)
+    _run(weak_reading, math.pi / 2, 3.0, (0.0, 0.5), 30.0)
+    assert weak_reading.converged
+    after_hold = CircleTask(ParamStore(all_param_defs()), point, 2.0, drift=weak_reading,
+                            water_current=lambda: (0.0, 1.2))
+    after_hold.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    assert after_hold.stem is not None
+    assert after_hold.stem.current_ne_mps == pytest.approx(weak_reading.current_ne_mps)  # the drift it sees
 
 
 def test_circle_item_keeps_circling_once_on_the_circle_when_the_estimate_arrives_late() -> None:
