@@ -27,6 +27,11 @@ off upstream, ran it 10 m off the circle in a straight line.  Nor upstream of th
 more than :data:`STEM_UPSTREAM_IDLE_M`): there the current brings the boat back while it turns at
 idle, whereas a powered turn drives it farther up (``docs/tuning.md``)."""
 STEM_UPSTREAM_IDLE_M = 1.0
+STEM_ARRIVAL_MPS = 1.0
+"""The leg to the abeam point brakes to this (instead of the corner speed) by its end, where the
+station keeper takes over 5 m from the circle.  Arriving at the corner speed, with the current
+across the leg and the wind behind, the boat came in at 4 m/s, ran through the hold point and the
+circle while the bow came round, and was swept 8 m off (``docs/tuning.md``)."""
 STEM_DROP_BACK_M = 5.0
 """A boat that starts the hold more than this upstream of the hold point (and more upstream than
 across the current from it) drops back onto the point under the station keeper at once, as GUIDED's
@@ -102,9 +107,12 @@ class StemHold:
                         + (pos_ne[1] - abeam[1]) * current_ne_mps[1]) / max(speed_c, 1e-6)
         from_downstream = downstream_m > CREEP_HANDOVER_M
         accept_m = CREEP_HANDOVER_M if self.below_creep and from_downstream else 1.0
-        self.legs = LegNavigator(LosFollower(los_gains(params), LosType(int(params.get("USV_LOS_TYPE")))),
-                                 leg_config(params, params.get("USV_CIRC_SPD") + math.hypot(*current_ne_mps),
-                                            accept_m))
+        cfg = leg_config(params, params.get("USV_CIRC_SPD") + math.hypot(*current_ne_mps), accept_m)
+        self.powered_turn_mps = cfg.turn_speed_mps
+        """Speed of a powered turn on the hold (:data:`STEM_POWERED_TURN_RAD`): the corner speed."""
+        cfg = replace(cfg, turn_speed_mps=min(cfg.turn_speed_mps, STEM_ARRIVAL_MPS))
+        los = LosFollower(los_gains(params), LosType(int(params.get("USV_LOS_TYPE"))))
+        self.legs = LegNavigator(los, cfg)
         self._leg = 0
         self._set_leg(pos_ne)
         self.current_ne_mps = current_ne_mps
@@ -189,7 +197,7 @@ class StemHold:
             speed = min(speed, out.surge_cap_mps)
         if abs(err) > STEM_POWERED_TURN_RAD and not self.below_creep \
                 and self._downstream_of_hold_m(pos_ne) > -STEM_UPSTREAM_IDLE_M:
-            speed = max(speed, self.legs.cfg.turn_speed_mps)  # turn under power, not at idle
+            speed = max(speed, self.powered_turn_mps)  # turn under power, not at idle
         # a turn of about 180 deg keeps the direction it started in (near +-pi the sign of the
         # heading error flips with every wave and the boat ran on straight, 60 m downstream)
         if self._turn_sign == 0.0 and abs(err) > U_TURN_RAD:

@@ -237,6 +237,27 @@ def test_hold_on_the_circle_drops_back_from_upstream_under_the_keeper(north_m: f
         assert math.cos(target.course_rad) < -0.3  # bow into the current (upstream is south)
 
 
+def test_hold_on_the_circle_arrives_slowly_at_the_abeam_point() -> None:
+    """1.2 m/s across the leg: the leg to the abeam point (5 m outside the circle) brakes to
+    1 m/s at its end, where the station keeper takes over (at the corner speed, 2.5 m/s,
+    the boat came in at 4 m/s, ran through the circle while the bow came round and was swept
+    8 m off); it runs faster far from it."""
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    obs = CurrentObserver()
+    _run(obs, 0.0, 3.0, (0.0, 1.2), 30.0)
+    _run(obs, math.pi / 2, 3.0, (0.0, 1.2), 30.0)
+    task = CircleTask(ParamStore(all_param_defs()), point, 2.0, drift=obs)
+    task.step(_nav(frame, -30.0, 0.0, 2.0, 0.0), 0.1)  # 30 m south, across the current
+    stem = task.stem
+    assert stem is not None and not stem.holding
+    abeam_n, abeam_e = stem.route[0]
+    assert abeam_n == pytest.approx(-7.0) and abeam_e == pytest.approx(0.0, abs=1e-9)
+    far = task.step(_nav(frame, -25.0, 0.0, 2.0, 0.0), 0.1).speed_mps
+    near = task.step(_nav(frame, abeam_n - 1.5, 0.0, 1.0, 0.0), 0.1).speed_mps
+    assert far > 2.0 and near < 1.5  # the braking profile down to 1 m/s at the point (2.6 m/s before)
+
+
 def _creep_params(limit_mps: float) -> ParamStore:
     params = ParamStore(all_param_defs())
     params.set("USV_CIRC_HOLD_C", limit_mps)
