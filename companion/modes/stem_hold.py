@@ -21,32 +21,29 @@ from companion.params import ParamStore
 STEM_POWERED_TURN_RAD = math.radians(60.0)
 """On the circle the hold turns at the corner speed while the bow is farther than this off the
 heading the station keeper wants: at idle the turn is slow and a strong current sweeps the boat
-tens of metres downstream before the bow is into it (measured: 45 m in 1.2 m/s).  Not below the
-idle creep: there the creep turns the boat, and at the corner speed the keeper's heading, 70 deg
-off upstream, ran it 10 m off the circle in a straight line.  Nor upstream of the hold point (by
-more than :data:`STEM_UPSTREAM_IDLE_M`): there the current brings the boat back while it turns at
-idle, whereas a powered turn drives it farther up (``docs/tuning.md``)."""
+tens of metres downstream before the bow is into it.  Not below the idle creep, where the creep
+turns the boat, and not more than :data:`STEM_UPSTREAM_IDLE_M` upstream of the hold point, where the
+current brings the boat back while it turns at idle and a powered turn would drive it farther up
+(``docs/tuning.md``)."""
 STEM_UPSTREAM_IDLE_M = 1.0
 STEM_ARRIVAL_MPS = 1.0
-"""The leg to the abeam point brakes to this (instead of the corner speed) by its end, where the
-station keeper takes over 5 m from the circle.  Arriving at the corner speed, with the current
-across the leg and the wind behind, the boat came in at 4 m/s, ran through the hold point and the
-circle while the bow came round, and was swept 8 m off (``docs/tuning.md``)."""
+"""The leg to the abeam point brakes to this speed (not the corner speed) at its end, where the
+station keeper takes over 5 m outside the circle: a boat arriving faster runs on through the hold
+point and the circle while the keeper turns it into the current (``docs/tuning.md``)."""
 STEM_DROP_BACK_M = 5.0
-"""A boat that starts the hold more than this upstream of the hold point (and more upstream than
-across the current from it) drops back onto the point under the station keeper at once, as GUIDED's
-approach does from upstream (:class:`~companion.modes.holding.ApproachTask`).  The legs to the abeam
-point ran it past the circle at the leg speed plus the current, and its turn into the current
-downstream of the circle swept it 20 m off (``docs/tuning.md``) ..."""
+STEM_DROP_BACK_BOW_RAD = math.radians(80.0)
+"""A boat that starts the hold more than STEM_DROP_BACK_M upstream of the hold point, more upstream
+than across the current from it, with its bow not within STEM_DROP_BACK_BOW_RAD of downstream,
+drops back onto the point under the station keeper at once, as GUIDED's approach does from upstream
+(:class:`~companion.modes.holding.ApproachTask`): the legs to the abeam point would run it past the
+circle with the current, and a boat already running down the current would coast through the
+circle while it turns (``docs/tuning.md``)."""
 STEM_NEAR_CIRCLE_M = 0.5
 STEM_REACH_S = 60.0
-"""Above the idle creep a hold whose boat has not come within STEM_NEAR_CIRCLE_M outside the circle
-this long after the station keeper took over is given up, like the hold below the creep
-(:data:`CREEP_REACH_S`): with wind against 0.8 m/s the keeper idled 4-5 m from the point for
-500 s and the bottle never filled (``docs/tuning.md``)."""
-STEM_DROP_BACK_BOW_RAD = math.radians(80.0)
-"""... unless its bow points within this of downstream: running down the current at speed (the
-hold picked on the way to the point), it coasted through the circle while it turned at idle."""
+"""Above the idle creep a hold is given up (flown once more, then circling) when the boat has not
+come within STEM_NEAR_CIRCLE_M outside the circle STEM_REACH_S after the station keeper took over,
+like the hold below the creep (:data:`CREEP_REACH_S`): wind against the current can leave the keeper
+stalled off its point, and the bottle would never fill (``docs/tuning.md``)."""
 
 
 CREEP_ABEAM_M = 8.0
@@ -124,10 +121,10 @@ class StemHold:
         """The keeper flies from the start when the boat is well upstream of the hold point
         (:data:`STEM_DROP_BACK_M`): the current sets it back onto the point, bow into it."""
         self.keeper_s = 0.0
+        """Seconds since the keeper took over from the legs."""
         self.radius_m = radius_m
         self.near_circle = False
         """The boat has been within :data:`STEM_NEAR_CIRCLE_M` outside the circle while holding."""
-        """Seconds since the keeper took over from the legs."""
         self.on_hold = False
         """The boat has been within :data:`CREEP_ON_HOLD_M` of the hold point."""
         self.lost = False
