@@ -313,17 +313,12 @@ def test_hold_below_the_creep_does_not_wind_up_on_the_ferry_to_its_point() -> No
         assert turned_deg > 2.0 if winds_up else turned_deg < 0.1
 
 
-def test_hold_below_the_creep_that_never_reaches_its_point_is_given_up_after_a_minute() -> None:
-    """A boat stalled 3 m from its hold point (creep, current and wind cancelling at idle) is
-    neither on the hold nor 20 m off: after 60 s of the keeper the hold is flown once more, then
-    the item circles instead of waiting for ever."""
-    point = (41.77, 123.43)
-    frame = LocalFrame(*point)
-    task = CircleTask(_creep_params(0.4), point, 2.0, water_current=lambda: (0.0, 0.5))
-    task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+def _stall_twice_then_circle(task: CircleTask, frame: LocalFrame, below_creep: bool) -> None:
+    """The boat stalls 3 m off the hold point: the hold is given up after 60 s of the keeper (not
+    after 59 s), flown once more, given up again, and the item circles."""
     for _attempt in range(2):
         stem = task.stem
-        assert stem is not None and stem.below_creep and not task.circling
+        assert stem is not None and stem.below_creep is below_creep and not task.circling
         stem.holding = True  # as if the legs were done
         stalled = _nav(frame, stem.hold_ne[0] - 3.0, stem.hold_ne[1], 0.0, 0.0)
         for _ in range(590):
@@ -333,6 +328,17 @@ def test_hold_below_the_creep_that_never_reaches_its_point_is_given_up_after_a_m
             task.step(stalled, 0.1)
         assert task.stem is not stem
     assert task.stem is None and task.circling
+
+
+def test_hold_below_the_creep_that_never_reaches_its_point_is_given_up_after_a_minute() -> None:
+    """A boat stalled 3 m from its hold point (creep, current and wind cancelling at idle) is
+    neither on the hold nor 20 m off: after 60 s of the keeper the hold is flown once more, then
+    the item circles instead of waiting for ever."""
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    task = CircleTask(_creep_params(0.4), point, 2.0, water_current=lambda: (0.0, 0.5))
+    task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    _stall_twice_then_circle(task, frame, below_creep=True)
 
 
 def test_hold_above_the_creep_that_never_gets_near_the_circle_is_given_up_after_a_minute() -> None:
@@ -347,18 +353,7 @@ def test_hold_above_the_creep_that_never_gets_near_the_circle_is_given_up_after_
     _run(obs, math.pi / 2, 3.0, (0.0, 0.8), 30.0)
     task = CircleTask(ParamStore(all_param_defs()), point, 2.0, drift=obs)
     task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
-    for _attempt in range(2):
-        stem = task.stem
-        assert stem is not None and not stem.below_creep and not task.circling
-        stem.holding = True  # as if the legs were done
-        stalled = _nav(frame, stem.hold_ne[0] - 3.0, stem.hold_ne[1], 0.0, 0.0)
-        for _ in range(590):
-            task.step(stalled, 0.1)
-        assert task.stem is stem  # 59 s: still trying
-        for _ in range(20):
-            task.step(stalled, 0.1)
-        assert task.stem is not stem
-    assert task.stem is None and task.circling
+    _stall_twice_then_circle(task, frame, below_creep=False)
     kept = CircleTask(ParamStore(all_param_defs()), point, 2.0, drift=obs)
     kept.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
     stem = kept.stem
