@@ -84,6 +84,16 @@ at idle where creep, current and wind cancel: on the flood's tuning seeds 22/23 
 hold sat there 475 s and 900+ s and the bottle never filled)."""
 
 
+def along_across_m(pos_ne: tuple[float, float], ref_ne: tuple[float, float],
+                   current_ne_mps: tuple[float, float]) -> tuple[float, float]:
+    """Where ``pos_ne`` lies from ``ref_ne`` (m): downstream along the current (negative: upstream),
+    and across it (positive: to the right looking downstream)."""
+    cn, ce = current_ne_mps
+    speed = max(math.hypot(cn, ce), 1e-6)
+    dn, de = pos_ne[0] - ref_ne[0], pos_ne[1] - ref_ne[1]
+    return (dn * cn + de * ce) / speed, (-dn * ce + de * cn) / speed
+
+
 class StemHold:
     """Keep station on the circle, bow into the current (:mod:`companion.guidance.stem`): a leg to
     the abeam point, then the current-fed station keeper
@@ -99,10 +109,7 @@ class StemHold:
             (0.0, 0.0), radius_m, current_ne_mps, pos_ne,
             *((CREEP_ABEAM_M, CREEP_HOLD_DOWNSTREAM_RAD) if self.below_creep else ()))
         abeam = self.route[0]
-        speed_c = math.hypot(*current_ne_mps)
-        downstream_m = ((pos_ne[0] - abeam[0]) * current_ne_mps[0]
-                        + (pos_ne[1] - abeam[1]) * current_ne_mps[1]) / max(speed_c, 1e-6)
-        from_downstream = downstream_m > CREEP_HANDOVER_M
+        from_downstream = along_across_m(pos_ne, abeam, current_ne_mps)[0] > CREEP_HANDOVER_M
         accept_m = CREEP_HANDOVER_M if self.below_creep and from_downstream else 1.0
         cfg = leg_config(params, params.get("USV_CIRC_SPD") + math.hypot(*current_ne_mps), accept_m)
         self.powered_turn_mps = cfg.turn_speed_mps
@@ -149,18 +156,10 @@ class StemHold:
     def _drops_back(self, pos_ne: tuple[float, float], heading_rad: float) -> bool:
         """More than :data:`STEM_DROP_BACK_M` upstream of the hold point, more upstream than across
         the current from it, and the bow not within :data:`STEM_DROP_BACK_BOW_RAD` of downstream."""
-        cn, ce = self.current_ne_mps
-        speed = max(math.hypot(cn, ce), 1e-6)
-        across_m = abs(-(pos_ne[0] - self.hold_ne[0]) * ce + (pos_ne[1] - self.hold_ne[1]) * cn) / speed
-        bow_off_downstream = abs(wrap_pi(heading_rad - math.atan2(ce, cn)))
-        return (-self._downstream_of_hold_m(pos_ne) > max(STEM_DROP_BACK_M, across_m)
-                and bow_off_downstream > STEM_DROP_BACK_BOW_RAD)
-
-    def _downstream_of_hold_m(self, pos_ne: tuple[float, float]) -> float:
-        """How far the boat is downstream of the hold point along the current (m; negative: upstream)."""
-        cn, ce = self.current_ne_mps
-        speed = max(math.hypot(cn, ce), 1e-6)
-        return ((pos_ne[0] - self.hold_ne[0]) * cn + (pos_ne[1] - self.hold_ne[1]) * ce) / speed
+        down_m, across_m = along_across_m(pos_ne, self.hold_ne, self.current_ne_mps)
+        downstream_rad = math.atan2(self.current_ne_mps[1], self.current_ne_mps[0])
+        return (-down_m > max(STEM_DROP_BACK_M, abs(across_m))
+                and abs(wrap_pi(heading_rad - downstream_rad)) > STEM_DROP_BACK_BOW_RAD)
 
     def _set_leg(self, pos_ne: tuple[float, float]) -> None:
         start = pos_ne if self._leg == 0 else self.route[self._leg - 1]
@@ -193,7 +192,7 @@ class StemHold:
         if self.below_creep and abs(err) < CREEP_CAP_WITHIN_RAD:
             speed = min(speed, out.surge_cap_mps)
         if abs(err) > STEM_POWERED_TURN_RAD and not self.below_creep \
-                and self._downstream_of_hold_m(pos_ne) > -STEM_UPSTREAM_IDLE_M:
+                and along_across_m(pos_ne, self.hold_ne, self.current_ne_mps)[0] > -STEM_UPSTREAM_IDLE_M:
             speed = max(speed, self.powered_turn_mps)  # turn under power, not at idle
         # a turn of about 180 deg keeps the direction it started in (near +-pi the sign of the
         # heading error flips with every wave and the boat ran on straight, 60 m downstream)

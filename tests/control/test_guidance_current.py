@@ -74,6 +74,14 @@ def test_stem_route_ends_on_the_circle_across_the_current_without_crossing_it(
         assert math.hypot(n, e) >= 2.0 - 1e-9
 
 
+def _observer_after_two_legs(current: tuple[float, float], water_mps: float = 3.0) -> CurrentObserver:
+    """An observer that has seen the boat run 30 s north, then 30 s east, in ``current``: converged."""
+    obs = CurrentObserver()
+    _run(obs, 0.0, water_mps, current, 30.0)
+    _run(obs, math.pi / 2, water_mps, current, 30.0)
+    return obs
+
+
 def _nav(frame: LocalFrame, n: float, e: float, vn: float, ve: float) -> NavState:
     lat, lon = frame.to_lat_lon(n, e)
     return NavState(t_s=0.0, lat_deg=lat, lon_deg=lon, alt_m=0.0, heading_rad=math.atan2(ve, vn),
@@ -86,9 +94,7 @@ def _nav(frame: LocalFrame, n: float, e: float, vn: float, ve: float) -> NavStat
 def test_circle_item_holds_on_the_circle_only_in_a_current_it_cannot_circle_in(current_mps: float,
                                                                               holds: bool) -> None:
     params = ParamStore(all_param_defs())
-    obs = CurrentObserver()
-    _run(obs, 0.0, 3.0, (0.0, current_mps), 30.0)
-    _run(obs, math.pi / 2, 3.0, (0.0, current_mps), 30.0)
+    obs = _observer_after_two_legs((0.0, current_mps))
     point = (41.77, 123.43)
     task = CircleTask(params, point, 2.0, drift=obs)
     frame = LocalFrame(*point)
@@ -135,9 +141,7 @@ def test_circle_item_picks_the_hold_from_the_estimator_before_the_observer_has_c
                         water_current=lambda: (0.0, 1.2))
     strong.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
     assert strong.stem is not None and strong.stem.current_ne_mps == (0.0, 1.2)
-    weak_reading = CurrentObserver()
-    _run(weak_reading, 0.0, 3.0, (0.0, 0.5), 30.0)
-    _run(weak_reading, math.pi / 2, 3.0, (0.0, 0.5), 30.0)
+    weak_reading = _observer_after_two_legs((0.0, 0.5))
     assert weak_reading.converged
     after_hold = CircleTask(ParamStore(all_param_defs()), point, 2.0, drift=weak_reading,
                             water_current=lambda: (0.0, 1.2))
@@ -197,9 +201,7 @@ def test_hold_on_the_circle_turns_under_power_only_where_the_current_sweeps_the_
     frame = LocalFrame(*point)
     speeds = {}
     for side, east_m in (("downstream", 4.0), ("upstream", -4.0)):
-        obs = CurrentObserver()
-        _run(obs, 0.0, 3.0, (0.0, 1.2), 30.0)
-        _run(obs, math.pi / 2, 3.0, (0.0, 1.2), 30.0)
+        obs = _observer_after_two_legs((0.0, 1.2))
         task = CircleTask(params, point, 2.0, drift=obs)
         task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
         assert task.stem is not None and not task.stem.below_creep
@@ -225,9 +227,7 @@ def test_hold_on_the_circle_drops_back_from_upstream_under_the_keeper(north_m: f
     params = ParamStore(all_param_defs())
     point = (41.77, 123.43)
     frame = LocalFrame(*point)
-    obs = CurrentObserver()
-    _run(obs, 0.0, 3.0, (1.2, 0.0), 30.0)
-    _run(obs, math.pi / 2, 3.0, (1.2, 0.0), 30.0)
+    obs = _observer_after_two_legs((1.2, 0.0))
     task = CircleTask(params, point, 2.0, drift=obs)
     bow = math.radians(bow_deg)
     target = task.step(_nav(frame, north_m, -1.0, 0.5 * math.cos(bow), 0.5 * math.sin(bow)), 0.1)
@@ -244,9 +244,7 @@ def test_hold_on_the_circle_arrives_slowly_at_the_abeam_point() -> None:
     8 m off); it runs faster far from it."""
     point = (41.77, 123.43)
     frame = LocalFrame(*point)
-    obs = CurrentObserver()
-    _run(obs, 0.0, 3.0, (0.0, 1.2), 30.0)
-    _run(obs, math.pi / 2, 3.0, (0.0, 1.2), 30.0)
+    obs = _observer_after_two_legs((0.0, 1.2))
     task = CircleTask(ParamStore(all_param_defs()), point, 2.0, drift=obs)
     task.step(_nav(frame, -30.0, 0.0, 2.0, 0.0), 0.1)  # 30 m south, across the current
     stem = task.stem
@@ -297,9 +295,7 @@ def test_hold_below_the_creep_does_not_wind_up_on_the_ferry_to_its_point() -> No
     point = (41.77, 123.43)
     frame = LocalFrame(*point)
     for current, winds_up in (((0.0, 0.5), False), ((0.0, 1.2), True)):
-        obs = CurrentObserver()
-        _run(obs, 0.0, 4.0, current, 30.0)
-        _run(obs, math.pi / 2, 4.0, current, 30.0)
+        obs = _observer_after_two_legs(current, 4.0)
         task = CircleTask(_creep_params(0.4), point, 2.0, drift=obs)
         task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
         stem = task.stem
@@ -348,9 +344,7 @@ def test_hold_above_the_creep_that_never_gets_near_the_circle_is_given_up_after_
     (within 0.5 m of it) keeps its hold."""
     point = (41.77, 123.43)
     frame = LocalFrame(*point)
-    obs = CurrentObserver()
-    _run(obs, 0.0, 3.0, (0.0, 0.8), 30.0)
-    _run(obs, math.pi / 2, 3.0, (0.0, 0.8), 30.0)
+    obs = _observer_after_two_legs((0.0, 0.8))
     task = CircleTask(ParamStore(all_param_defs()), point, 2.0, drift=obs)
     task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
     _stall_twice_then_circle(task, frame, below_creep=False)
