@@ -265,14 +265,22 @@ class DriftOrbit:
 
 ENTRY_CURRENT_MPS = 0.15
 """Above this current the orbit turns toward upstream on entry, below it the way the boat turns."""
+KEEP_TURN_RADPS = math.radians(10.0)
+"""A boat turning faster than this keeps turning its way when a hold starts (the orbit's direction,
+:func:`orbit_clockwise`; the direction of a U-turn onto the station keeper's heading,
+:class:`~companion.guidance.bow_turn.KeeperTurn`): reversing a turn takes seconds in which the jet
+pushes the boat on straight (``docs/tuning.md``)."""
 
 
 def orbit_clockwise(heading_rad: float, yaw_rate_radps: float, current_ne_mps: tuple[float, float]) -> bool:
-    """The orbit's direction for a boat entering it at its centre: the entry turn (radius rho
-    through the water) is centred at bearing ``heading + lam pi/2``; with that centre upstream the
-    current sets the boat back toward the point while it turns (the opposite way it carries it
-    ``|V_c| T`` farther out, 2-3 m in 0.5 m/s); in slack water the boat keeps turning the way it
-    turns (``yaw_rate_radps`` > 0 is clockwise)."""
+    """The orbit's direction for a boat entering it at its centre (``yaw_rate_radps`` > 0 is
+    clockwise).  A boat turning faster than :data:`KEEP_TURN_RADPS` (LOITER entered from GUIDED's
+    orbit) keeps turning its way.  Otherwise, in a current, the entry turn (radius rho through the
+    water) is centred at bearing ``heading + lam pi/2``, and with that centre upstream the current
+    sets the boat back toward the point while it turns (the opposite way it carries it ``|V_c| T``
+    farther out, 2-3 m in 0.5 m/s); in slack water the boat turns the way it turns."""
+    if abs(yaw_rate_radps) >= KEEP_TURN_RADPS:
+        return yaw_rate_radps > 0.0
     if math.hypot(*current_ne_mps) > ENTRY_CURRENT_MPS:
         right_n, right_e = math.cos(heading_rad + 0.5 * math.pi), math.sin(heading_rad + 0.5 * math.pi)
         return right_n * current_ne_mps[0] + right_e * current_ne_mps[1] < 0.0

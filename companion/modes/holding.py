@@ -22,6 +22,7 @@ from collections.abc import Callable
 from dataclasses import replace
 
 from companion.control.target import ControlTarget
+from companion.guidance.bow_turn import KeeperTurn, along_across_m, downstream_speed_mps
 from companion.guidance.geo import LocalFrame, wrap_2pi
 from companion.guidance.hold_params import HOLD_CURRENT, current_station_gains, orbit_gains
 from companion.guidance.holding import (
@@ -56,7 +57,9 @@ class _Held:
 
 
 class CurrentStationTask:
-    """Keep station on ``point`` (lat, lon) bow into a known current."""
+    """Keep station on ``point`` (lat, lon) bow into a known current; large turns onto the keeper's
+    heading under power, the way the boat already turns (:class:`~companion.guidance.bow_turn.KeeperTurn`,
+    at ``USV_WP_TURN_SPD``, as the hold on a sampling circle)."""
 
     strategy = HoldStrategy.STATION
 
@@ -66,16 +69,21 @@ class CurrentStationTask:
         self.point = point
         self.current = _Held(current, initial_ne_mps)
         self.keeper = CurrentStationKeeper((0.0, 0.0), heading_rad, current_station_gains(params))
+        self.turn = KeeperTurn(params.get("USV_WP_TURN_SPD"))
         self.distance_m = 0.0
         self.cross_track_m = 0.0
 
     def step(self, nav: NavState, dt_s: float) -> ControlTarget:
         current = self.current()
-        out = self.keeper.update(self.frame.to_ne(nav.lat_deg, nav.lon_deg), current, dt_s)
+        pos_ne = self.frame.to_ne(nav.lat_deg, nav.lon_deg)
+        out = self.keeper.update(pos_ne, current, dt_s)
         self.distance_m = out.distance_m
+        heading, speed = self.turn.command(
+            out.heading_rad, out.surge_speed_mps, nav.heading_rad, nav.r_radps,
+            along_across_m(pos_ne, (0.0, 0.0), current)[0],
+            downstream_speed_mps((nav.vel_north_mps, nav.vel_east_mps), current))
         along = current[0] * math.cos(out.heading_rad) + current[1] * math.sin(out.heading_rad)
-        return ControlTarget(out.heading_rad, out.surge_speed_mps, is_heading=True, hold_station=True,
-                             current_along_mps=along)
+        return ControlTarget(heading, speed, is_heading=True, hold_station=True, current_along_mps=along)
 
 
 class OrbitTask:

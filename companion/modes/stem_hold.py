@@ -8,24 +8,17 @@ import math
 from dataclasses import replace
 
 from companion.control.target import ControlTarget
-from companion.guidance.geo import wrap_2pi, wrap_pi
+from companion.guidance.bow_turn import KeeperTurn, along_across_m, downstream_speed_mps
+from companion.guidance.geo import wrap_pi
 from companion.guidance.hold_params import current_station_gains
 from companion.guidance.holding import CurrentStationKeeper
 from companion.guidance.los import LosFollower, LosType
 from companion.guidance.params import leg_config, los_gains
 from companion.guidance.stem import stem_route
-from companion.guidance.waypoints import U_TURN_DONE_RAD, U_TURN_RAD, LegNavigator
+from companion.guidance.waypoints import LegNavigator
 from companion.messages import NavState
 from companion.params import ParamStore
 
-STEM_POWERED_TURN_RAD = math.radians(60.0)
-"""On the circle the hold turns at the corner speed while the bow is farther than this off the
-heading the station keeper wants: at idle the turn is slow and a strong current sweeps the boat
-tens of metres downstream before the bow is into it.  Not below the idle creep, where the creep
-turns the boat, and not more than :data:`STEM_UPSTREAM_IDLE_M` upstream of the hold point, where the
-current brings the boat back while it turns at idle and a powered turn would drive it farther up
-(``docs/tuning.md``)."""
-STEM_UPSTREAM_IDLE_M = 1.0
 STEM_ARRIVAL_MPS = 1.0
 """The leg to the abeam point brakes to this speed (not the corner speed) at its end, where the
 station keeper takes over 5 m outside the circle: a boat arriving faster runs on through the hold
@@ -84,16 +77,6 @@ at idle where creep, current and wind cancel: on the flood's tuning seeds 22/23 
 hold sat there 475 s and 900+ s and the bottle never filled)."""
 
 
-def along_across_m(pos_ne: tuple[float, float], ref_ne: tuple[float, float],
-                   current_ne_mps: tuple[float, float]) -> tuple[float, float]:
-    """Where ``pos_ne`` lies from ``ref_ne`` (m): downstream along the current (negative: upstream),
-    and across it (positive: to the right looking downstream)."""
-    cn, ce = current_ne_mps
-    speed = max(math.hypot(cn, ce), 1e-6)
-    dn, de = pos_ne[0] - ref_ne[0], pos_ne[1] - ref_ne[1]
-    return (dn * cn + de * ce) / speed, (-dn * ce + de * cn) / speed
-
-
 class StemHold:
     """Keep station on the circle, bow into the current (:mod:`companion.guidance.stem`): a leg to
     the abeam point, then the current-fed station keeper
@@ -112,8 +95,9 @@ class StemHold:
         from_downstream = along_across_m(pos_ne, abeam, current_ne_mps)[0] > CREEP_HANDOVER_M
         accept_m = CREEP_HANDOVER_M if self.below_creep and from_downstream else 1.0
         cfg = leg_config(params, params.get("USV_CIRC_SPD") + math.hypot(*current_ne_mps), accept_m)
-        self.powered_turn_mps = cfg.turn_speed_mps
-        """Speed of a powered turn on the hold (:data:`STEM_POWERED_TURN_RAD`): the corner speed."""
+        self.turn = KeeperTurn(None if self.below_creep else cfg.turn_speed_mps)
+        """How the bow turns onto the keeper's heading: under power at the corner speed, not below
+        the idle creep (:class:`~companion.guidance.bow_turn.KeeperTurn`)."""
         cfg = replace(cfg, turn_speed_mps=min(cfg.turn_speed_mps, STEM_ARRIVAL_MPS))
         los = LosFollower(los_gains(params), LosType(int(params.get("USV_LOS_TYPE"))))
         self.legs = LegNavigator(los, cfg)
@@ -138,7 +122,6 @@ class StemHold:
         """Set when the hold is given up for circling: below the idle creep when it has crept off
         (:data:`CREEP_LOST_M`); either side of it when it never got near its point
         (:data:`CREEP_REACH_S`, :data:`STEM_REACH_S`)."""
-        self._turn_sign = 0.0
 
     @classmethod
     def when_needed(cls, params: ParamStore, current_ne_mps: tuple[float, float] | None, radius_m: float,
@@ -187,19 +170,10 @@ class StemHold:
         if not self.below_creep and not self.near_circle and self.keeper_s > STEM_REACH_S:
             self.lost = True
         out = self.keeper.update(pos_ne, self.current_ne_mps, dt_s)
-        speed, heading = out.surge_speed_mps, out.heading_rad
-        err = wrap_pi(out.heading_rad - nav.heading_rad)
-        if self.below_creep and abs(err) < CREEP_CAP_WITHIN_RAD:
+        downstream_m = along_across_m(pos_ne, self.hold_ne, self.current_ne_mps)[0]
+        heading, speed = self.turn.command(
+            out.heading_rad, out.surge_speed_mps, nav.heading_rad, nav.r_radps, downstream_m,
+            downstream_speed_mps((nav.vel_north_mps, nav.vel_east_mps), self.current_ne_mps))
+        if self.below_creep and abs(wrap_pi(out.heading_rad - nav.heading_rad)) < CREEP_CAP_WITHIN_RAD:
             speed = min(speed, out.surge_cap_mps)
-        if abs(err) > STEM_POWERED_TURN_RAD and not self.below_creep \
-                and along_across_m(pos_ne, self.hold_ne, self.current_ne_mps)[0] > -STEM_UPSTREAM_IDLE_M:
-            speed = max(speed, self.powered_turn_mps)  # turn under power, not at idle
-        # a turn of about 180 deg keeps the direction it started in (near +-pi the sign of the
-        # heading error flips with every wave and the boat ran on straight, 60 m downstream)
-        if self._turn_sign == 0.0 and abs(err) > U_TURN_RAD:
-            self._turn_sign = math.copysign(1.0, err)
-        elif abs(err) < U_TURN_DONE_RAD:
-            self._turn_sign = 0.0
-        if self._turn_sign != 0.0 and math.copysign(1.0, err) != self._turn_sign:
-            heading = wrap_2pi(nav.heading_rad + self._turn_sign * U_TURN_RAD)
         return ControlTarget(heading, speed, is_heading=True, hold_station=True)

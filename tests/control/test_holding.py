@@ -165,9 +165,19 @@ def test_orbit_entry_turn_goes_on_past_the_circle_until_the_bow_joins_and_not_fr
 ])
 def test_orbit_direction_puts_the_entry_turn_upstream_in_a_current(
         heading_deg: float, current: tuple[float, float], clockwise: bool) -> None:
-    assert orbit_clockwise(math.radians(heading_deg), -0.3, current) is clockwise
+    """A boat running straight (or turning slower than KEEP_TURN_RADPS) either way."""
+    for yaw_rate_radps in (0.0, 0.1, -0.1):
+        assert orbit_clockwise(math.radians(heading_deg), yaw_rate_radps, current) is clockwise
+
+
+@pytest.mark.parametrize("yaw_rate_radps", [0.2, -0.2, 0.9, -0.9])
+def test_orbit_direction_of_a_boat_already_turning_is_its_turn_in_any_current(yaw_rate_radps: float) -> None:
+    """LOITER entered from GUIDED's orbit: the boat keeps turning its way whichever side is upstream
+    (reversing the turn ran it 8-12 m downstream on usv bench nav's grid, docs/tuning.md)."""
+    for current in ((0.5, 0.0), (-0.5, 0.0), (0.0, 0.8), (0.05, 0.0)):
+        assert orbit_clockwise(math.radians(90.0), yaw_rate_radps, current) is (yaw_rate_radps > 0.0)
 
 
 def test_orbit_direction_in_slack_water_is_the_way_the_boat_already_turns() -> None:
-    assert orbit_clockwise(1.0, 0.2, (0.05, 0.0)) is True
-    assert orbit_clockwise(1.0, -0.2, (0.05, 0.0)) is False
+    assert orbit_clockwise(1.0, 0.05, (0.05, 0.0)) is True
+    assert orbit_clockwise(1.0, -0.05, (0.05, 0.0)) is False

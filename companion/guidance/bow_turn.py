@@ -1,0 +1,81 @@
+"""How a boat keeping station in a current turns its bow onto the heading the station keeper
+(:class:`~companion.guidance.holding.CurrentStationKeeper`) wants: :class:`KeeperTurn`, the rules
+every task that holds a point bow into the current shares (LOITER, GUIDED and RTL on their point,
+:class:`~companion.modes.holding.CurrentStationTask`; the hold on a sampling circle,
+:class:`~companion.modes.stem_hold.StemHold`).
+
+A water jet has no reverse and turns only while it pushes: at idle the bow comes round slowly and a
+current sweeps the boat downstream while it turns, and a turn reversed at speed runs the boat on
+straight.  So a large turn is made under power, the way the boat already turns, except upstream of
+the point, where the current brings the boat back while it turns at idle.
+"""
+
+from __future__ import annotations
+
+import math
+
+from companion.guidance.geo import wrap_2pi, wrap_pi
+from companion.guidance.holding import KEEP_TURN_RADPS
+from companion.guidance.waypoints import U_TURN_DONE_RAD, U_TURN_RAD
+
+POWERED_TURN_RAD = math.radians(60.0)
+"""The bow turns at the powered-turn speed (the corner speed, ``USV_WP_TURN_SPD``) while it is
+farther than this off the keeper's heading and the boat is being carried downstream, unless it is
+more than :data:`UPSTREAM_IDLE_M` upstream of its point (``docs/tuning.md``)."""
+UPSTREAM_IDLE_M = 1.0
+
+
+def along_across_m(pos_ne: tuple[float, float], ref_ne: tuple[float, float],
+                   current_ne_mps: tuple[float, float]) -> tuple[float, float]:
+    """Where ``pos_ne`` lies from ``ref_ne`` (m): downstream along the current (negative: upstream),
+    and across it (positive: to the right looking downstream)."""
+    cn, ce = current_ne_mps
+    speed = max(math.hypot(cn, ce), 1e-6)
+    dn, de = pos_ne[0] - ref_ne[0], pos_ne[1] - ref_ne[1]
+    return (dn * cn + de * ce) / speed, (-dn * ce + de * cn) / speed
+
+
+def downstream_speed_mps(vel_ne_mps: tuple[float, float], current_ne_mps: tuple[float, float]) -> float:
+    """The component of a velocity over ground (north, east m/s) along the current."""
+    return along_across_m(vel_ne_mps, (0.0, 0.0), current_ne_mps)[0]
+
+
+class KeeperTurn:
+    """The heading and surge a holding task commands for the station keeper's output.
+
+    * Farther than :data:`POWERED_TURN_RAD` off the keeper's heading, while the boat moves
+      downstream over ground, the surge is at least ``powered_turn_mps`` (``None``: never, below
+      the idle creep, where the creep turns the boat), unless the boat is more than
+      :data:`UPSTREAM_IDLE_M` upstream of its point.  A boat moving upstream (an arrival running
+      on past its point) or well upstream of it turns at idle: the current brings it back, and a
+      powered turn would drive it farther up.
+    * A turn of more than ``U_TURN_RAD`` (135 deg) keeps the direction it started in, the way the
+      boat already turns when it turns faster than
+      :data:`~companion.guidance.holding.KEEP_TURN_RADPS`, else the way of the heading error (near
+      +-180 deg the error's sign flips with every wave and the boat ran on straight), until the
+      error is below ``U_TURN_DONE_RAD``."""
+
+    def __init__(self, powered_turn_mps: float | None) -> None:
+        self.powered_turn_mps = powered_turn_mps
+        self.turn_sign = 0.0
+        """+1 / -1 while a U-turn keeps its direction (clockwise positive), 0 otherwise."""
+
+    def command(self, keeper_heading_rad: float, surge_mps: float, heading_rad: float,
+                yaw_rate_radps: float, downstream_m: float, downstream_mps: float) -> tuple[float, float]:
+        """Heading (rad) and surge over ground (m/s) to command, for the keeper's heading and surge,
+        the boat's heading and yaw rate, how far it is downstream of its point
+        (:func:`along_across_m`; negative: upstream) and how fast it moves downstream over ground
+        (negative: upstream)."""
+        err = wrap_pi(keeper_heading_rad - heading_rad)
+        speed = surge_mps
+        if self.powered_turn_mps is not None and abs(err) > POWERED_TURN_RAD \
+                and downstream_m > -UPSTREAM_IDLE_M and downstream_mps > 0.0:
+            speed = max(speed, self.powered_turn_mps)
+        if self.turn_sign == 0.0 and abs(err) > U_TURN_RAD:
+            turning = abs(yaw_rate_radps) > KEEP_TURN_RADPS
+            self.turn_sign = math.copysign(1.0, yaw_rate_radps if turning else err)
+        elif abs(err) < U_TURN_DONE_RAD:
+            self.turn_sign = 0.0
+        if self.turn_sign != 0.0 and math.copysign(1.0, err) != self.turn_sign:
+            return wrap_2pi(heading_rad + self.turn_sign * U_TURN_RAD), speed
+        return keeper_heading_rad, speed
