@@ -279,7 +279,7 @@ def orbit_clockwise(heading_rad: float, yaw_rate_radps: float, current_ne_mps: t
     water) is centred at bearing ``heading + lam pi/2``, and with that centre upstream the current
     sets the boat back toward the point while it turns (the opposite way it carries it ``|V_c| T``
     farther out, 2-3 m in 0.5 m/s); in slack water the boat turns the way it turns."""
-    if abs(yaw_rate_radps) >= KEEP_TURN_RADPS:
+    if abs(yaw_rate_radps) > KEEP_TURN_RADPS:
         return yaw_rate_radps > 0.0
     if math.hypot(*current_ne_mps) > ENTRY_CURRENT_MPS:
         right_n, right_e = math.cos(heading_rad + 0.5 * math.pi), math.sin(heading_rad + 0.5 * math.pi)
