@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import math
 
-from companion.guidance.geo import wrap_2pi, wrap_pi
+from companion.guidance.geo import wrap_pi
 from companion.guidance.holding import KEEP_TURN_RADPS
-from companion.guidance.waypoints import U_TURN_DONE_RAD, U_TURN_RAD
+from companion.guidance.waypoints import UTurnLatch
 
 POWERED_TURN_RAD = math.radians(60.0)
 """The bow turns at the powered-turn speed (the corner speed, ``USV_WP_TURN_SPD``) while it is
@@ -49,16 +49,13 @@ class KeeperTurn:
       :data:`UPSTREAM_IDLE_M` upstream of its point.  A boat moving upstream (an arrival running
       on past its point) or well upstream of it turns at idle: the current brings it back, and a
       powered turn would drive it farther up.
-    * A turn of more than ``U_TURN_RAD`` (135 deg) keeps the direction it started in, the way the
-      boat already turns when it turns faster than
-      :data:`~companion.guidance.holding.KEEP_TURN_RADPS`, else the way of the heading error (near
-      +-180 deg the error's sign flips with every wave and the boat ran on straight), until the
-      error is below ``U_TURN_DONE_RAD``."""
+    * A U-turn (:class:`~companion.guidance.waypoints.UTurnLatch`) starts the way the boat already
+      turns when it turns faster than :data:`~companion.guidance.holding.KEEP_TURN_RADPS`, else the
+      way of the heading error, and keeps that way."""
 
     def __init__(self, powered_turn_mps: float | None) -> None:
         self.powered_turn_mps = powered_turn_mps
-        self.turn_sign = 0.0
-        """+1 / -1 while a U-turn keeps its direction (clockwise positive), 0 otherwise."""
+        self.u_turn = UTurnLatch()
 
     def command(self, keeper_heading_rad: float, surge_mps: float, heading_rad: float,
                 yaw_rate_radps: float, downstream_m: float, downstream_mps: float) -> tuple[float, float]:
@@ -71,11 +68,7 @@ class KeeperTurn:
         if self.powered_turn_mps is not None and abs(err) > POWERED_TURN_RAD \
                 and downstream_m > -UPSTREAM_IDLE_M and downstream_mps > 0.0:
             speed = max(speed, self.powered_turn_mps)
-        if self.turn_sign == 0.0 and abs(err) > U_TURN_RAD:
-            turning = abs(yaw_rate_radps) > KEEP_TURN_RADPS
-            self.turn_sign = math.copysign(1.0, yaw_rate_radps if turning else err)
-        elif abs(err) < U_TURN_DONE_RAD:
-            self.turn_sign = 0.0
-        if self.turn_sign != 0.0 and math.copysign(1.0, err) != self.turn_sign:
-            return wrap_2pi(heading_rad + self.turn_sign * U_TURN_RAD), speed
-        return keeper_heading_rad, speed
+        turning = abs(yaw_rate_radps) > KEEP_TURN_RADPS
+        latched = self.u_turn.heading(err, heading_rad,
+                                      lambda: math.copysign(1.0, yaw_rate_radps if turning else err))
+        return (keeper_heading_rad if latched is None else latched), speed

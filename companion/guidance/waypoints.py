@@ -16,10 +16,11 @@ metres wide of the next leg).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 from companion.control.target import ControlTarget
-from companion.guidance.geo import wrap_pi
+from companion.guidance.geo import wrap_2pi, wrap_pi
 from companion.guidance.los import LegErrors, LosFollower
 
 Point = tuple[float, float]
@@ -84,6 +85,29 @@ U_TURN_RAD = math.radians(135.0)
 """A heading error beyond this is a U-turn: its direction is chosen, not left to the sign of noise."""
 U_TURN_DONE_RAD = math.radians(90.0)
 """The chosen direction is kept until the heading error is below this."""
+
+
+class UTurnLatch:
+    """Keeps a U-turn going the way it started: a heading error beyond :data:`U_TURN_RAD` latches a
+    direction, which holds until the error is below :data:`U_TURN_DONE_RAD` (near 180 deg the
+    error's sign flips with every wave, and the boat ran on straight).  The caller picks the
+    direction (:func:`u_turn_sign` for a leg; the way the boat turns for a hold)."""
+
+    def __init__(self) -> None:
+        self.sign = 0.0
+        """+1 (clockwise) / -1 while a U-turn is latched, 0 otherwise."""
+
+    def heading(self, err_rad: float, heading_rad: float, pick_sign: Callable[[], float]) -> float | None:
+        """For the heading error ``err_rad`` of a boat on ``heading_rad``: the heading to command
+        instead of the target's (the latched way round), or ``None`` to follow the target.
+        ``pick_sign`` is called when a U-turn starts (0: none is latched)."""
+        if self.sign == 0.0 and abs(err_rad) > U_TURN_RAD:
+            self.sign = pick_sign()
+        elif abs(err_rad) < U_TURN_DONE_RAD:
+            self.sign = 0.0
+        if self.sign == 0.0 or math.copysign(1.0, err_rad) == self.sign:
+            return None
+        return wrap_2pi(heading_rad + self.sign * U_TURN_RAD)
 
 
 def u_turn_sign(heading_rad: float, leg_rad: float, inside_sign: float) -> float:

@@ -24,7 +24,7 @@ from companion.guidance.geo import LocalFrame, distance_bearing, wrap_2pi, wrap_
 from companion.guidance.los import LosFollower, LosType
 from companion.guidance.params import circle_gains, leg_config, los_gains, station_gains
 from companion.guidance.station import StationKeeper
-from companion.guidance.waypoints import U_TURN_DONE_RAD, U_TURN_RAD, LegNavigator, u_turn_sign
+from companion.guidance.waypoints import LegNavigator, UTurnLatch, u_turn_sign
 from companion.messages import NavState
 from companion.modes.base import Mode, NavTarget, requires_position
 from companion.modes.host import ModeHost
@@ -109,20 +109,18 @@ class GotoTask:
         self.reached = False
         self.distance_m = math.inf
         self.cross_track_m = 0.0
-        self._u_turn = 0.0
+        self._u_turn = UTurnLatch()
 
     def _turn_onto_leg(self, target: ControlTarget, nav: NavState, leg_rad: float) -> ControlTarget:
         """A U-turn onto the leg goes the way :func:`~companion.guidance.waypoints.u_turn_sign`
         picks (toward the inside of the route), kept until the boat points within 90 deg."""
-        err = wrap_pi(target.course_rad - nav.heading_rad)
-        if self._u_turn == 0.0 and abs(err) > U_TURN_RAD and self.nav.inside_sign != 0.0:
-            self._u_turn = u_turn_sign(nav.heading_rad, leg_rad, self.nav.inside_sign)
-        elif abs(err) < U_TURN_DONE_RAD:
-            self._u_turn = 0.0
-        if self._u_turn == 0.0 or math.copysign(1.0, err) == self._u_turn:
+        inside = self.nav.inside_sign
+        heading = self._u_turn.heading(
+            wrap_pi(target.course_rad - nav.heading_rad), nav.heading_rad,
+            lambda: u_turn_sign(nav.heading_rad, leg_rad, inside) if inside != 0.0 else 0.0)
+        if heading is None:
             return target
-        return replace(target, course_rad=wrap_2pi(nav.heading_rad + self._u_turn * U_TURN_RAD),
-                       is_heading=True, course_rate_radps=0.0)
+        return replace(target, course_rad=heading, is_heading=True, course_rate_radps=0.0)
 
     def step(self, nav: NavState, dt_s: float) -> ControlTarget:
         pos = self.frame.to_ne(nav.lat_deg, nav.lon_deg)

@@ -35,7 +35,7 @@ def test_a_u_turn_goes_the_way_the_boat_already_turns(yaw_rate_degps: float, tur
     turns the short way; either keeps its direction while the error flips sign near 180 deg."""
     turn = KeeperTurn(2.5)
     heading, _ = turn.command(math.radians(150.0), 0.0, 0.0, math.radians(yaw_rate_degps), 0.0, 0.5)
-    assert turn.turn_sign == turn_sign
+    assert turn.u_turn.sign == turn_sign
     assert math.remainder(heading, 2 * math.pi) * turn_sign > 0.0
     # 20 deg later the error is 190 deg the other way (-170 deg): the turn goes on as started
     later, _ = turn.command(math.radians(150.0 + 40.0 * turn_sign), 0.0, math.radians(-20.0 * turn_sign),
@@ -43,7 +43,7 @@ def test_a_u_turn_goes_the_way_the_boat_already_turns(yaw_rate_degps: float, tur
     assert math.remainder(later - math.radians(-20.0 * turn_sign), 2 * math.pi) * turn_sign > 0.0
     # near the keeper's heading the keeper steers again
     done, _ = turn.command(0.3, 0.0, 0.2, 0.0, 0.0, 0.5)
-    assert done == 0.3 and turn.turn_sign == 0.0
+    assert done == 0.3 and turn.u_turn.sign == 0.0
 
 
 def test_along_across_is_measured_on_the_current() -> None:
