@@ -190,7 +190,7 @@ class ApproachTask:
         s_n, s_e = self.frame.to_ne(*start)
         self.distance_m = math.hypot(s_n, s_e)
         up_n, up_e = self.upstream_ne
-        downstream_m = -s_n * up_n - s_e * up_e  # how far the boat is downstream of end
+        downstream_m = along_across_m((s_n, s_e), (0.0, 0.0), (-up_n, -up_e))[0]  # the boat, of end
         if self.distance_m == 0.0 or downstream_m / self.distance_m >= UPSTREAM_COS:
             self.leg = GotoTask(self.params, start, self.end, self.speed_mps, self.accept_radius_m,
                                 follower=follower)
