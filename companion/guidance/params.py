@@ -45,6 +45,10 @@ PARAMS: tuple[ParamDef, ...] = (
              "U-turn onto a leg (heading more than 135 deg off it, e.g. AUTO started with the bow into the "
              "current): 1 = turn toward the inside of the route (the next corner's side), 0 = whichever way "
              "the heading error's sign says.", is_int=True, choices=((0, "shorter way"), (1, "inside"))),
+    ParamDef("USV_WP_UTURN_SPD", 1.0, 0.3, 5.0, "m/s",
+             "Speed through the water of a U-turn onto a leg (USV_WP_UTURN), until the bow is within 45 deg "
+             "of the leg: a jet turns on its smallest circle slowly (about 1.3 m radius at 1 m/s). With the "
+             "bow into a current the boat is commanded this minus the current over ground (not below 0)."),
     ParamDef("USV_WP_JOIN", 70.0, 0.0, 90.0, "deg",
              "AUTO entered while the boat orbits a hold point (RTL, LOITER or GUIDED in a current weaker "
              "than USV_HOLD_CREEP): keep orbiting until the course is within this of the first leg "

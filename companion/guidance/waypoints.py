@@ -87,6 +87,26 @@ U_TURN_DONE_RAD = math.radians(90.0)
 """The chosen direction is kept until the heading error is below this."""
 
 
+PIVOT_DONE_RAD = math.radians(45.0)
+"""A U-turn onto a leg runs slowly (:func:`pivot_speed_mps`) until the heading error is below this."""
+
+
+def pivot_speed_mps(water_speed_mps: float, heading_rad: float,
+                    current_ne_mps: tuple[float, float] | None) -> float:
+    """Speed over ground (>= 0) that is ``water_speed_mps`` through the water on ``heading_rad``:
+    the water speed plus the current along the bow (the water speed itself without an estimate).
+
+    A jet turns on the smallest circle slowly (radius U_w / r_max: about 1.3 m at 1 m/s), and the
+    circle is drawn in the water, so a U-turn with the bow into a 1.2 m/s current is commanded at
+    0 over ground (the current carries the boat down the leg), and at 2.2 m/s once it points down
+    the current.  Commanding the corner speed over ground instead asks 3.2 m/s through the water
+    with the bow upstream: the turn then spans a 5-7 m circle (``docs/tuning.md``)."""
+    if current_ne_mps is None:
+        return water_speed_mps
+    along = current_ne_mps[0] * math.cos(heading_rad) + current_ne_mps[1] * math.sin(heading_rad)
+    return max(0.0, water_speed_mps + along)
+
+
 class UTurnLatch:
     """Keeps a U-turn going the way it started: a heading error beyond :data:`U_TURN_RAD` latches a
     direction, which holds until the error is below :data:`U_TURN_DONE_RAD` (near 180 deg the

@@ -184,7 +184,7 @@ class NavItem(ItemTask):
             start = here
         carried = run.task.follower if isinstance(run.task, GotoTask) else None  # last leg's crab estimate
         run.task = GotoTask(params, start, target, speed, accept_radius_m, next_point, follower=carried,
-                            drift=run.drift)
+                            drift=run.drift, water_current=estimator_current(run.host))
         run.phase = Phase.GOTO
 
     def step(self, nav: NavState) -> bool:

@@ -35,7 +35,7 @@ from companion.guidance.holding import (
 from companion.guidance.los import LosFollower
 from companion.messages import NavState
 from companion.modes.host import ModeHost
-from companion.modes.navigation import GotoTask
+from companion.modes.navigation import GotoTask, estimator_current
 from companion.params import ParamStore
 
 CurrentSource = Callable[[], tuple[float, float] | None]
@@ -177,6 +177,7 @@ class ApproachTask:
         self.point = end
         self.end = end
         self.params, self.speed_mps, self.accept_radius_m = params, speed_mps, accept_radius_m
+        self.current_ne_mps = current_ne_mps
         speed_c = math.hypot(*current_ne_mps)
         self.upstream_ne = (-current_ne_mps[0] / speed_c, -current_ne_mps[1] / speed_c)
         self.brake_m = params.get("USV_HOLD_BRAKE")
@@ -193,13 +194,16 @@ class ApproachTask:
         downstream_m = along_across_m((s_n, s_e), (0.0, 0.0), (-up_n, -up_e))[0]  # the boat, of end
         if self.distance_m == 0.0 or downstream_m / self.distance_m >= UPSTREAM_COS:
             self.leg = GotoTask(self.params, start, self.end, self.speed_mps, self.accept_radius_m,
-                                follower=follower)
+                                follower=follower, water_current=self._current)
         elif downstream_m > 0.0:
             below = self.frame.to_lat_lon(-up_n * self.brake_m, -up_e * self.brake_m)
             self.leg = GotoTask(self.params, below, self.end, self.speed_mps, self.accept_radius_m,
-                                follower=follower)
+                                follower=follower, water_current=self._current)
         else:
             self.leg = None
+
+    def _current(self) -> tuple[float, float]:
+        return self.current_ne_mps
 
     @property
     def reached(self) -> bool:
@@ -259,7 +263,8 @@ def goto_task(host: ModeHost, start: tuple[float, float], end: tuple[float, floa
     if kind == HoldStrategy.STATION and est is not None:
         current = (est.north_mps, est.east_mps)
         return ApproachTask(host.params, start, end, speed_mps, current, accept_radius_m)
-    goto = GotoTask(host.params, start, end, speed_mps, accept_radius_m)
+    goto = GotoTask(host.params, start, end, speed_mps, accept_radius_m,
+                    water_current=estimator_current(host))
     if kind == HoldStrategy.ORBIT and est is not None:
         leg_n, leg_e = goto.frame.to_ne(*end)
         leg_m = max(1e-6, math.hypot(leg_n, leg_e))

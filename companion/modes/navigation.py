@@ -24,7 +24,13 @@ from companion.guidance.geo import LocalFrame, distance_bearing, wrap_2pi, wrap_
 from companion.guidance.los import LosFollower, LosType
 from companion.guidance.params import circle_gains, leg_config, los_gains, station_gains
 from companion.guidance.station import StationKeeper
-from companion.guidance.waypoints import LegNavigator, UTurnLatch, u_turn_sign
+from companion.guidance.waypoints import (
+    PIVOT_DONE_RAD,
+    LegNavigator,
+    UTurnLatch,
+    pivot_speed_mps,
+    u_turn_sign,
+)
 from companion.messages import NavState
 from companion.modes.base import Mode, NavTarget, requires_position
 from companion.modes.host import ModeHost
@@ -88,13 +94,16 @@ class GotoTask:
     def __init__(self, params: ParamStore, start: tuple[float, float], end: tuple[float, float],
                  speed_mps: float, accept_radius_m: float | None = None,
                  next_point: tuple[float, float] | None = None, follower: LosFollower | None = None,
-                 drift: CurrentObserver | None = None) -> None:
+                 drift: CurrentObserver | None = None,
+                 water_current: Callable[[], tuple[float, float] | None] | None = None) -> None:
         """``follower``: the previous leg's LOS follower, so the crab (integral/adaptive) estimate
         of the current carries over a corner (scaled by the cosine of the turn) instead of being
         learnt again on every leg; a new one when None.  ``drift``: the vehicle's current
-        observer, for the crab feed-forward (``USV_LOS_CFF``)."""
+        observer, for the crab feed-forward (``USV_LOS_CFF``).  ``water_current``: the
+        estimator's current (:func:`estimator_current`), for the speed of a U-turn onto the leg."""
         self.params = params
         self.drift = drift
+        self.water_current = water_current
         self.frame = LocalFrame(*start)
         self.end = end
         radius = accept_radius_m if accept_radius_m and accept_radius_m > 0 else param(params, "WP_RADIUS")
@@ -110,14 +119,28 @@ class GotoTask:
         self.distance_m = math.inf
         self.cross_track_m = 0.0
         self._u_turn = UTurnLatch()
+        self.pivoting = False
+        """A U-turn onto the leg is under way (from a heading error beyond 135 deg until it is below
+        :data:`~companion.guidance.waypoints.PIVOT_DONE_RAD`)."""
 
     def _turn_onto_leg(self, target: ControlTarget, nav: NavState, leg_rad: float) -> ControlTarget:
         """A U-turn onto the leg goes the way :func:`~companion.guidance.waypoints.u_turn_sign`
-        picks (toward the inside of the route), kept until the boat points within 90 deg."""
+        picks (toward the inside of the route), kept until the boat points within 90 deg, and runs
+        at ``USV_WP_UTURN_SPD`` through the water (:func:`~companion.guidance.waypoints.pivot_speed_mps`)
+        until it points within 45 deg."""
         inside = self.nav.inside_sign
+        err_rad = wrap_pi(target.course_rad - nav.heading_rad)
         heading = self._u_turn.heading(
-            wrap_pi(target.course_rad - nav.heading_rad), nav.heading_rad,
+            err_rad, nav.heading_rad,
             lambda: u_turn_sign(nav.heading_rad, leg_rad, inside) if inside != 0.0 else 0.0)
+        if self._u_turn.sign != 0.0:
+            self.pivoting = True
+        elif abs(err_rad) < PIVOT_DONE_RAD:
+            self.pivoting = False
+        if self.pivoting:
+            current = self.water_current() if self.water_current is not None else None
+            speed = pivot_speed_mps(self.params.get("USV_WP_UTURN_SPD"), nav.heading_rad, current)
+            target = replace(target, speed_mps=min(target.speed_mps, speed))
         if heading is None:
             return target
         return replace(target, course_rad=heading, is_heading=True, course_rate_radps=0.0)

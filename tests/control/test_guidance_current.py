@@ -12,9 +12,9 @@ from hypothesis import strategies as st
 from companion.guidance.current import MAX_CRAB_SIN, CurrentObserver, crab_heading, water_speed_mps
 from companion.guidance.geo import LocalFrame
 from companion.guidance.stem import stem_route
-from companion.guidance.waypoints import drift_lead_m, u_turn_sign
+from companion.guidance.waypoints import drift_lead_m, pivot_speed_mps, u_turn_sign
 from companion.messages import NavState
-from companion.modes.navigation import CircleTask
+from companion.modes.navigation import CircleTask, GotoTask
 from companion.param_table import all_param_defs
 from companion.params import ParamStore
 
@@ -370,6 +370,38 @@ def test_u_turn_onto_a_leg_turns_toward_the_inside_of_the_route(heading_deg: flo
     # the turning circle's centre (at heading + s * 90 deg) lies on the inside of the leg
     centre_east = math.sin(math.radians(heading_deg) + s * math.pi / 2)
     assert centre_east * inside > 0
+
+
+def _heading_nav(frame: LocalFrame, heading_deg: float) -> NavState:
+    """A boat at the frame's origin, at rest, bow on ``heading_deg``."""
+    lat, lon = frame.to_lat_lon(0.0, 0.0)
+    return NavState(t_s=0.0, lat_deg=lat, lon_deg=lon, alt_m=0.0, heading_rad=math.radians(heading_deg),
+                    roll_rad=0.0, pitch_rad=0.0, vel_north_mps=0.0, vel_east_mps=0.0, u_mps=0.0,
+                    v_mps=0.0, r_radps=0.0)
+
+
+@pytest.mark.parametrize(("current_n_mps", "speeds"), [
+    (1.2, (0.0, 1.0, 5.0)),    # bow into 1.2 m/s: held back by the current, then 1 m/s across it
+    (0.0, (1.0, 1.0, 5.0)),    # slack water: 1 m/s through the turn
+    (None, (1.0, 1.0, 5.0)),   # no estimate: the water speed over ground
+])
+def test_u_turn_onto_a_leg_runs_slowly_through_the_water_until_the_bow_is_near_the_leg(
+        current_n_mps: float | None, speeds: tuple[float, float, float]) -> None:
+    """AUTO started with the bow into the current and the first leg down it (north): the U-turn
+    runs at USV_WP_UTURN_SPD (1 m/s) through the water, commanded over ground as 1 m/s plus the
+    current along the bow (never below 0), until the bow is within 45 deg of the leg; then the
+    leg's corner speed (USV_WP_TURN_SPD, 2 m/s) as before.  Commanding 2 m/s over ground with the
+    bow up a 1.2 m/s current asked 3.2 m/s through the water, and the turn spanned 5-7 m."""
+    params = ParamStore(all_param_defs())
+    home = (41.77, 123.43)
+    frame = LocalFrame(*home)
+    current = None if current_n_mps is None else (current_n_mps, 0.0)
+    task = GotoTask(params, home, frame.to_lat_lon(50.0, 0.0), 5.0, next_point=frame.to_lat_lon(50.0, 50.0),
+                    water_current=(lambda: current) if current is not None else None)
+    got = [task.step(_heading_nav(frame, hdg), 0.1).speed_mps for hdg in (180.0, 90.0, 30.0)]
+    assert got == pytest.approx(list(speeds), abs=1e-6)
+    assert task.step(_heading_nav(frame, 100.0), 0.1).speed_mps == pytest.approx(5.0)  # the U-turn is over
+    assert pivot_speed_mps(1.0, 0.0, (1.2, 0.0)) == pytest.approx(2.2)  # down the current
 
 
 def test_corner_starts_earlier_when_the_current_sets_the_boat_past_the_new_leg() -> None:
