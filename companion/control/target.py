@@ -39,7 +39,8 @@ class ControlTarget:
     astern), when guidance knows it: the speed through the water is ``speed_mps`` minus this, which
     the PID family's throttle feed-forward uses (bow into a 1.2 m/s current: 1.2 m/s through the
     water to stand still), so its integrator does not have to find the holding throttle again
-    after every mode change (it is reset on entry)."""
+    after every mode change (it is reset on entry).  A U-turn onto a leg gives the component along
+    the bow as it turns (:func:`companion.guidance.waypoints.pivot_speed_mps`)."""
 
 
 @dataclass(frozen=True, slots=True)

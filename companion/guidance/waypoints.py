@@ -91,6 +91,13 @@ PIVOT_DONE_RAD = math.radians(45.0)
 """A U-turn onto a leg runs slowly (:func:`pivot_speed_mps`) until the heading error is below this."""
 
 
+def current_along_mps(heading_rad: float, current_ne_mps: tuple[float, float] | None) -> float:
+    """The current's component along the bow (m/s, positive from astern); 0 without an estimate."""
+    if current_ne_mps is None:
+        return 0.0
+    return current_ne_mps[0] * math.cos(heading_rad) + current_ne_mps[1] * math.sin(heading_rad)
+
+
 def pivot_speed_mps(water_speed_mps: float, heading_rad: float,
                     current_ne_mps: tuple[float, float] | None) -> float:
     """Speed over ground (>= 0) that is ``water_speed_mps`` through the water on ``heading_rad``:
@@ -101,10 +108,7 @@ def pivot_speed_mps(water_speed_mps: float, heading_rad: float,
     0 over ground (the current carries the boat down the leg), and at 2.2 m/s once it points down
     the current.  Commanding the corner speed over ground instead asks 3.2 m/s through the water
     with the bow upstream: the turn then spans a 5-7 m circle (``docs/tuning.md``)."""
-    if current_ne_mps is None:
-        return water_speed_mps
-    along = current_ne_mps[0] * math.cos(heading_rad) + current_ne_mps[1] * math.sin(heading_rad)
-    return max(0.0, water_speed_mps + along)
+    return max(0.0, water_speed_mps + current_along_mps(heading_rad, current_ne_mps))
 
 
 class UTurnLatch:

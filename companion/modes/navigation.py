@@ -28,6 +28,7 @@ from companion.guidance.waypoints import (
     PIVOT_DONE_RAD,
     LegNavigator,
     UTurnLatch,
+    current_along_mps,
     pivot_speed_mps,
     u_turn_sign,
 )
@@ -140,7 +141,8 @@ class GotoTask:
         if self.pivoting:
             current = self.water_current() if self.water_current is not None else None
             speed = pivot_speed_mps(self.params.get("USV_WP_UTURN_SPD"), nav.heading_rad, current)
-            target = replace(target, speed_mps=min(target.speed_mps, speed))
+            target = replace(target, speed_mps=min(target.speed_mps, speed),
+                             current_along_mps=current_along_mps(nav.heading_rad, current))
         if heading is None:
             return target
         return replace(target, course_rad=heading, is_heading=True, course_rate_radps=0.0)

@@ -398,8 +398,10 @@ def test_u_turn_onto_a_leg_runs_slowly_through_the_water_until_the_bow_is_near_t
     current = None if current_n_mps is None else (current_n_mps, 0.0)
     task = GotoTask(params, home, frame.to_lat_lon(50.0, 0.0), 5.0, next_point=frame.to_lat_lon(50.0, 50.0),
                     water_current=(lambda: current) if current is not None else None)
-    got = [task.step(_heading_nav(frame, hdg), 0.1).speed_mps for hdg in (180.0, 90.0, 30.0)]
-    assert got == pytest.approx(list(speeds), abs=1e-6)
+    targets = [task.step(_heading_nav(frame, hdg), 0.1) for hdg in (180.0, 90.0, 30.0)]
+    assert [t.speed_mps for t in targets] == pytest.approx(list(speeds), abs=1e-6)
+    # the PID family's throttle feed-forward sees the speed through the water (1.2 m/s bow-on)
+    assert targets[0].current_along_mps == pytest.approx(-(current_n_mps or 0.0), abs=1e-6)
     assert task.step(_heading_nav(frame, 100.0), 0.1).speed_mps == pytest.approx(5.0)  # the U-turn is over
     assert pivot_speed_mps(1.0, 0.0, (1.2, 0.0)) == pytest.approx(2.2)  # down the current
 
