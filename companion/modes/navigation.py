@@ -26,6 +26,7 @@ from companion.guidance.params import circle_gains, leg_config, los_gains, stati
 from companion.guidance.station import StationKeeper
 from companion.guidance.waypoints import (
     PIVOT_DONE_RAD,
+    U_TURN_RAD,
     LegNavigator,
     UTurnLatch,
     current_along_mps,
@@ -121,20 +122,22 @@ class GotoTask:
         self.cross_track_m = 0.0
         self._u_turn = UTurnLatch()
         self.pivoting = False
-        """A U-turn onto the leg is under way (from a heading error beyond 135 deg until it is below
+        """A U-turn onto the leg is under way (from a heading error beyond
+        :data:`~companion.guidance.waypoints.U_TURN_RAD` until it is below
         :data:`~companion.guidance.waypoints.PIVOT_DONE_RAD`)."""
 
     def _turn_onto_leg(self, target: ControlTarget, nav: NavState, leg_rad: float) -> ControlTarget:
-        """A U-turn onto the leg goes the way :func:`~companion.guidance.waypoints.u_turn_sign`
-        picks (toward the inside of the route), kept until the boat points within 90 deg, and runs
-        at ``USV_WP_UTURN_SPD`` through the water (:func:`~companion.guidance.waypoints.pivot_speed_mps`)
-        until it points within 45 deg."""
+        """A U-turn onto the leg (heading error beyond 135 deg) runs at ``USV_WP_UTURN_SPD`` through
+        the water (:func:`~companion.guidance.waypoints.pivot_speed_mps`) until the boat points within
+        45 deg; with a corner to come it goes the way :func:`~companion.guidance.waypoints.u_turn_sign`
+        picks (toward the inside of the route), kept until the boat points within 90 deg (the last
+        leg of a route, GUIDED's and RTL's, has no inside: the heading loop picks the way)."""
         inside = self.nav.inside_sign
         err_rad = wrap_pi(target.course_rad - nav.heading_rad)
         heading = self._u_turn.heading(
             err_rad, nav.heading_rad,
             lambda: u_turn_sign(nav.heading_rad, leg_rad, inside) if inside != 0.0 else 0.0)
-        if self._u_turn.sign != 0.0:
+        if abs(err_rad) > U_TURN_RAD:
             self.pivoting = True
         elif abs(err_rad) < PIVOT_DONE_RAD:
             self.pivoting = False

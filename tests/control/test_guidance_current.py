@@ -406,6 +406,19 @@ def test_u_turn_onto_a_leg_runs_slowly_through_the_water_until_the_bow_is_near_t
     assert pivot_speed_mps(1.0, 0.0, (1.2, 0.0)) == pytest.approx(2.2)  # down the current
 
 
+def test_u_turn_onto_the_last_leg_runs_slowly_too() -> None:
+    """GUIDED's and RTL's leg (no corner after it, so no inside to turn toward) pivots the same:
+    bow into 1.2 m/s with the point down the current, 0 over ground until within 45 deg."""
+    params = ParamStore(all_param_defs())
+    home = (41.77, 123.43)
+    frame = LocalFrame(*home)
+    task = GotoTask(params, home, frame.to_lat_lon(100.0, 0.0), 5.0, water_current=lambda: (1.2, 0.0))
+    assert task.step(_heading_nav(frame, 180.0), 0.1).speed_mps == pytest.approx(0.0)
+    assert task.step(_heading_nav(frame, 60.0), 0.1).speed_mps == pytest.approx(1.6)  # 1 + 1.2 cos 60
+    assert task.pivoting
+    assert task.step(_heading_nav(frame, 40.0), 0.1).speed_mps == pytest.approx(5.0)
+
+
 def test_corner_starts_earlier_when_the_current_sets_the_boat_past_the_new_leg() -> None:
     east_leg, south_leg = ((50.0, 0.0), (50.0, 50.0)), (0.0, 50.0)
     # current toward east (along the old leg, across the new one, away from the route): turn earlier
