@@ -20,6 +20,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 from companion.control.target import ControlTarget
+from companion.guidance.current import current_along_mps
 from companion.guidance.geo import wrap_2pi, wrap_pi
 from companion.guidance.los import LegErrors, LosFollower
 
@@ -89,13 +90,6 @@ U_TURN_DONE_RAD = math.radians(90.0)
 
 PIVOT_DONE_RAD = math.radians(45.0)
 """A U-turn onto a leg runs slowly (:func:`pivot_speed_mps`) until the heading error is below this."""
-
-
-def current_along_mps(heading_rad: float, current_ne_mps: tuple[float, float] | None) -> float:
-    """The current's component along the bow (m/s, positive from astern); 0 without an estimate."""
-    if current_ne_mps is None:
-        return 0.0
-    return current_ne_mps[0] * math.cos(heading_rad) + current_ne_mps[1] * math.sin(heading_rad)
 
 
 def pivot_speed_mps(water_speed_mps: float, heading_rad: float,

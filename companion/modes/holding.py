@@ -23,6 +23,7 @@ from dataclasses import replace
 
 from companion.control.target import ControlTarget
 from companion.guidance.bow_turn import KeeperTurn, along_across_m, downstream_speed_mps
+from companion.guidance.current import current_along_mps
 from companion.guidance.geo import LocalFrame, wrap_2pi
 from companion.guidance.hold_params import HOLD_CURRENT, current_station_gains, orbit_gains
 from companion.guidance.holding import (
@@ -82,8 +83,8 @@ class CurrentStationTask:
             out.heading_rad, out.surge_speed_mps, nav.heading_rad, nav.r_radps,
             along_across_m(pos_ne, (0.0, 0.0), current)[0],
             downstream_speed_mps((nav.vel_north_mps, nav.vel_east_mps), current))
-        along = current[0] * math.cos(out.heading_rad) + current[1] * math.sin(out.heading_rad)
-        return ControlTarget(heading, speed, is_heading=True, hold_station=True, current_along_mps=along)
+        return ControlTarget(heading, speed, is_heading=True, hold_station=True,
+                             current_along_mps=current_along_mps(out.heading_rad, current))
 
 
 class OrbitTask:
