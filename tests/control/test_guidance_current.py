@@ -390,7 +390,8 @@ def test_u_turn_onto_a_leg_runs_slowly_through_the_water_until_the_bow_is_near_t
     """AUTO started with the bow into the current and the first leg down it (north): the U-turn
     runs at USV_WP_UTURN_SPD (1 m/s) through the water, commanded over ground as 1 m/s plus the
     current along the bow (never below 0), until the bow is within 45 deg of the leg; then the
-    leg's corner speed (USV_WP_TURN_SPD, 2 m/s) as before.  Commanding 2 m/s over ground with the
+    leg's own speed as before (WP_SPEED here: at rest the course over ground reads along the leg,
+    so the corner-speed rule does not apply).  Commanding 2 m/s over ground with the
     bow up a 1.2 m/s current asked 3.2 m/s through the water, and the turn spanned 5-7 m."""
     params = ParamStore(all_param_defs())
     home = (41.77, 123.43)
