@@ -36,6 +36,15 @@ turning radius), so a heading wobble does not rev the engine and push the boat o
 And the nozzle angle is solved against at least the thrust of ``yaw_inversion_min_throttle``, so
 a small yaw demand at idle does not throw the nozzle from stop to stop.
 
+A boat carried by a current is slow through the water however fast it goes over ground: 2.2 m/s
+over ground down a 0.8 m/s current is 1.4 m/s through the water, where the jet has as little yaw
+authority as at 1.4 m/s in slack water.  There the full yaw priority of a boat making way turned
+every heading wobble into thrust (nozzle from stop to stop, throttle 0.8-1.0) and the boat ran at
+5-6 m/s on a 2.2 m/s leg.  So a commanded speed through the water (with the estimator's current,
+``current``) below ``turn_boost_speed_mps`` gets the near-standstill nozzle floor and turn-scaled
+thrust too, but not the throttle cap, which is for a boat that is slow over ground (a corner taken
+down a current still gets the thrust that turns it).
+
 The qLPV model is evaluated on over-ground velocities, and near standstill in a current those
 are mostly drift (the hull's sway and yaw terms then change with every heading change faster
 than the UKF follows).  So station keeping runs the PID family unless ``USV_STN_CTRL`` is 1
@@ -62,6 +71,8 @@ from companion.models.qlpv import QLPVModel
 
 DeltaNuSource = Callable[[], tuple[float, float, float] | None]
 """Returns the latest model-error estimate delta_nu (m/s^2, m/s^2, rad/s^2), or None."""
+CurrentSource = Callable[[], tuple[float, float] | None]
+"""Returns the latest water-current estimate (north, east m/s), or None."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -112,10 +123,12 @@ class ActiveModelController:
     name = "active_model"
 
     def __init__(self, model: QLPVModel, cfg: ActiveModelConfig | None = None,
-                 delta_nu: DeltaNuSource | None = None) -> None:
+                 delta_nu: DeltaNuSource | None = None, current: CurrentSource | None = None) -> None:
         self.model = model
         self.cfg = cfg or ActiveModelConfig()
         self.delta_nu_source = delta_nu
+        self.current_source = current
+        """The water current that gives the commanded speed through the water (module docstring)."""
         self.crab = CrabEstimator(self.cfg.heading.crab_tau_s)
         b = model.b_matrix()
         self._b_u = float(b[0, 1])
@@ -185,11 +198,20 @@ class ActiveModelController:
         delta = math.copysign(c.nozzle_max_rad, delta)
         return delta, max(w_cos / math.cos(delta), abs(w_sin) / math.sin(c.nozzle_max_rad))
 
+    def _commanded_water_speed_mps(self, nav: NavState, target: ControlTarget) -> float:
+        """The commanded speed through the water: over ground minus the current along the bow
+        (the commanded speed itself without an estimate)."""
+        current = self.current_source() if self.current_source is not None else None
+        if current is None:
+            return target.speed_mps
+        along_mps = current[0] * math.cos(nav.heading_rad) + current[1] * math.sin(nav.heading_rad)
+        return target.speed_mps - along_mps
+
     def _allocate_near_standstill(self, w_sin: float, w_cos: float, nav: NavState, target: ControlTarget,
-                                  e_psi: float, r_d: float) -> tuple[float, float]:
+                                  e_psi: float, r_d: float, capped: bool = True) -> tuple[float, float]:
         """:meth:`_allocate` below ``turn_boost_speed_mps``: the nozzle is solved against at least
         the thrust of ``yaw_inversion_min_throttle``, and the yaw row's extra thrust at the nozzle
-        limit is scaled by the turn asked for and capped (module docstring)."""
+        limit is scaled by the turn asked for and, when ``capped``, capped (module docstring)."""
         c = self.cfg
         floor = float(self.model.thrust(c.yaw_inversion_min_throttle, nav.u_mps))
         delta = math.atan2(w_sin, max(w_cos, floor))
@@ -200,6 +222,8 @@ class ActiveModelController:
         surge_only /= math.cos(delta)
         yaw_priority = max(surge_only, abs(w_sin) / math.sin(c.nozzle_max_rad))
         thrust = surge_only + self._turn_intent(e_psi, r_d) * (yaw_priority - surge_only)
+        if not capped:
+            return delta, thrust
         cap = float(self.model.thrust(self._turn_throttle_cap(target.course_rate_radps), nav.u_mps))
         return delta, min(thrust, max(surge_only, cap))
 
@@ -215,8 +239,10 @@ class ActiveModelController:
         r_dot_d = c.rate_k_per_s * (r_d - nav.r_radps) + self._rd_dot(r_d, dt_s)
         w_sin = (r_dot_d - f[2] - self.dnu_r) / self._b_r
         w_cos = self.speed_law.thrust_demand(nav, target.speed_mps, self.dnu_u_raw, dt_s, float(f[0]))
-        if target.speed_mps < c.turn_boost_speed_mps:
-            delta, thrust = self._allocate_near_standstill(w_sin, w_cos, nav, target, e_psi, r_d)
+        slow_over_ground = target.speed_mps < c.turn_boost_speed_mps
+        if slow_over_ground or self._commanded_water_speed_mps(nav, target) < c.turn_boost_speed_mps:
+            delta, thrust = self._allocate_near_standstill(w_sin, w_cos, nav, target, e_psi, r_d,
+                                                           capped=slow_over_ground)
         else:
             delta, thrust = self._allocate(w_sin, w_cos)
         throttle = throttle_for_thrust(self.model, thrust, nav.u_mps)

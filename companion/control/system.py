@@ -95,6 +95,10 @@ class ControlSystem:
             return None
         return est
 
+    def _current_ne(self) -> tuple[float, float] | None:
+        est = self.water_current
+        return None if est is None else (est.north_mps, est.east_mps)
+
     def _delta_nu(self) -> tuple[float, float, float] | None:
         msg = self._model_error
         if msg is None or self.clock.now_s() - msg.t_s > MODEL_ERROR_STALE_S:
@@ -121,7 +125,8 @@ class ControlSystem:
         if fam is None:
             p = self.params
             if kind == CTRL_ACTIVE_MODEL and self.model is not None:
-                fam = ActiveModelController(self.model, active_model_config(p), delta_nu=self._delta_nu)
+                fam = ActiveModelController(self.model, active_model_config(p), delta_nu=self._delta_nu,
+                                            current=self._current_ne)
             else:
                 fam = PidController(pid_config(p))
             self._families[kind] = fam

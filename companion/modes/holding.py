@@ -82,8 +82,9 @@ class CurrentStationTask:
         heading, speed = self.turn.command(
             out.heading_rad, out.surge_speed_mps, nav.heading_rad, nav.r_radps,
             along_across_m(pos_ne, (0.0, 0.0), current)[0],
-            downstream_speed_mps((nav.vel_north_mps, nav.vel_east_mps), current))
-        return ControlTarget(heading, speed, is_heading=True, hold_station=True,
+            downstream_speed_mps((nav.vel_north_mps, nav.vel_east_mps), current),
+            current_along_mps(nav.heading_rad, current))
+        return ControlTarget(heading, speed, is_heading=True, hold_station=not self.turn.powered,
                              current_along_mps=current_along_mps(out.heading_rad, current))
 
 

@@ -9,6 +9,7 @@ from dataclasses import replace
 
 from companion.control.target import ControlTarget
 from companion.guidance.bow_turn import KeeperTurn, along_across_m, downstream_speed_mps
+from companion.guidance.current import current_along_mps
 from companion.guidance.geo import wrap_pi
 from companion.guidance.hold_params import current_station_gains
 from companion.guidance.holding import CurrentStationKeeper
@@ -173,7 +174,8 @@ class StemHold:
         downstream_m = along_across_m(pos_ne, self.hold_ne, self.current_ne_mps)[0]
         heading, speed = self.turn.command(
             out.heading_rad, out.surge_speed_mps, nav.heading_rad, nav.r_radps, downstream_m,
-            downstream_speed_mps((nav.vel_north_mps, nav.vel_east_mps), self.current_ne_mps))
+            downstream_speed_mps((nav.vel_north_mps, nav.vel_east_mps), self.current_ne_mps),
+            current_along_mps(nav.heading_rad, self.current_ne_mps))
         if self.below_creep and abs(wrap_pi(out.heading_rad - nav.heading_rad)) < CREEP_CAP_WITHIN_RAD:
             speed = min(speed, out.surge_cap_mps)
-        return ControlTarget(heading, speed, is_heading=True, hold_station=True)
+        return ControlTarget(heading, speed, is_heading=True, hold_station=not self.turn.powered)

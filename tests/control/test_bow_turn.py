@@ -28,6 +28,22 @@ def test_a_large_turn_is_powered_only_while_the_current_carries_the_boat_off() -
     assert KeeperTurn(2.5).command(0.0, 0.1, math.radians(30.0), 0.0, 0.0, downstream_mps=0.5)[1] == 0.1
 
 
+def test_a_powered_turn_runs_through_the_water_under_the_making_way_controller() -> None:
+    """The powered turn is USV_WP_TURN_SPD through the water: bow down a 1.2 m/s current, 3.2 m/s
+    over ground (a boat running down the current at 3-4 m/s was asked 2 m/s over ground, and the
+    speed loop idled the jet, which then hardly turned); bow up it, 0.8 m/s.  The turn is flagged
+    for the controller of a boat making way; a small correction is not."""
+    turn = KeeperTurn(2.0)
+    assert turn.command(0.0, 0.0, math.pi, 0.0, 0.0, 0.5, current_along_bow_mps=1.2)[1] == pytest.approx(3.2)
+    assert turn.powered
+    assert turn.command(0.0, 0.0, math.pi, 0.0, 0.0, 0.5, current_along_bow_mps=-1.2)[1] == pytest.approx(0.8)
+    assert turn.powered
+    assert turn.command(0.0, 0.1, math.radians(30.0), 0.0, 0.0, 0.5, current_along_bow_mps=1.2)[1] == 0.1
+    assert not turn.powered
+    assert turn.command(0.0, 0.2, math.pi, 0.0, 0.0, -1.0, current_along_bow_mps=1.2)[1] == 0.2
+    assert not turn.powered
+
+
 @pytest.mark.parametrize(("yaw_rate_degps", "turn_sign"), [(-30.0, -1.0), (30.0, 1.0), (0.0, 1.0)])
 def test_a_u_turn_goes_the_way_the_boat_already_turns(yaw_rate_degps: float, turn_sign: float) -> None:
     """Keeper heading 150 deg clockwise of the bow: a boat turning counter-clockwise keeps turning
@@ -71,9 +87,12 @@ def test_loiter_entered_bow_downstream_turns_into_the_current_under_power() -> N
     upstream_rad = math.radians(270.0)  # the keeper's first heading (hold_task: bow into the current)
     task = CurrentStationTask(params, point, upstream_rad, lambda: (0.0, 0.8), (0.0, 0.8))
     on_point = task.step(_nav(frame, 0.0, 0.0, 90.0, 2.0), 0.01)
-    assert on_point.speed_mps >= params.get("USV_WP_TURN_SPD")
+    assert on_point.speed_mps >= params.get("USV_WP_TURN_SPD") + 0.8  # through the water, bow downstream
+    assert not on_point.hold_station  # steered as a boat making way
     upstream = CurrentStationTask(params, point, upstream_rad, lambda: (0.0, 0.8), (0.0, 0.8))
-    assert upstream.step(_nav(frame, 0.0, -3.0, 90.0, 2.0), 0.01).speed_mps <= 0.0
+    upstream_target = upstream.step(_nav(frame, 0.0, -3.0, 90.0, 2.0), 0.01)
+    assert upstream_target.speed_mps <= 0.0 and upstream_target.hold_station
     # running on upstream past the point (an arrival), bow 60+ deg off the keeper's heading: at idle
     overrun = CurrentStationTask(params, point, upstream_rad, lambda: (0.0, 0.8), (0.0, 0.8))
-    assert overrun.step(_nav(frame, 0.0, -0.5, 190.0, 1.7), 0.01).speed_mps < 1.0
+    overrun_target = overrun.step(_nav(frame, 0.0, -0.5, 190.0, 1.7), 0.01)
+    assert overrun_target.speed_mps < 1.0 and overrun_target.hold_station

@@ -108,6 +108,35 @@ def test_active_model_inversion_achieves_the_designed_accelerations() -> None:
     assert nu_dot[0] == pytest.approx(cfg.speed.k_per_s * 0.5, rel=1e-6)
 
 
+def test_a_heading_wobble_down_a_current_does_not_rev_the_jet_but_a_turn_keeps_its_thrust() -> None:
+    """2.2 m/s over ground down a 0.8 m/s current is 1.4 m/s through the water, where the jet has
+    little yaw authority: a heading wobble (3 deg off, swinging away at 11 deg/s, the boat already
+    carried to 3 m/s) that saturates the nozzle gets the turn-scaled thrust of a slow boat, not the
+    full yaw priority of a boat making way (which held the throttle at 0.8-1.0 and drove the boat
+    to 5-6 m/s on a 2.2 m/s leg in usv sitl).
+    Without an estimate, or up the current, the boat makes way: full yaw priority.  A U-turn down the
+    current keeps the thrust that turns it (no throttle cap, unlike a boat slow over ground)."""
+    model = toy_model()
+    nav = nav_from(0.0, 0, 0, 0.0, np.array([3.0, 0.0, -0.2]))
+
+    def throttle(course_deg: float, current: tuple[float, float] | None) -> float:
+        ctl = ActiveModelController(model, ActiveModelConfig(), delta_nu=lambda: (0.0, 0.0, 0.0),
+                                    current=None if current is None else (lambda: current))
+        target = ControlTarget(course_rad=math.radians(course_deg), speed_mps=2.2, is_heading=True)
+        return ctl.update(nav, target, 0.01, NO_SATURATION).throttle
+
+    making_way = throttle(3.0, None)
+    assert making_way > 0.75                                    # full yaw priority
+    assert throttle(3.0, (-0.8, 0.0)) == pytest.approx(making_way)  # up the current: making way too
+    assert throttle(3.0, (0.8, 0.0)) < making_way - 0.2          # down it: the wobble does not rev the jet
+    u_turn = throttle(178.0, None)
+    assert throttle(178.0, (0.8, 0.0)) == pytest.approx(u_turn)  # a real turn keeps its thrust
+    slow = ActiveModelController(model, ActiveModelConfig(), delta_nu=lambda: (0.0, 0.0, 0.0))
+    slow_target = ControlTarget(math.radians(178.0), 1.4, is_heading=True)
+    slow_turn = slow.update(nav, slow_target, 0.01, NO_SATURATION)
+    assert slow_turn.throttle < u_turn                           # slow over ground: capped
+
+
 def test_active_model_keeps_steering_thrust_when_asked_to_turn_hard_and_slow_down() -> None:
     """A water jet does not turn without thrust: at the nozzle limit the yaw request wins, so a
     hard turn entered too fast still gets the yaw acceleration it asks for (the boat used to cut
