@@ -241,7 +241,7 @@ class CircleTask:
         if self.stem is None and not self.circling:
             current, strength_mps = self._current()
             self.stem = StemHold.when_needed(self.params, current, self.radius_m, pos, nav.heading_rad,
-                                             strength_mps)
+                                             strength_mps, (nav.vel_north_mps, nav.vel_east_mps))
             self.circling = self.stem is None and out.distance_m < self.radius_m + DECIDE_OUTSIDE_M
             if self.stem is not None:
                 log.info("circle item: holding on the circle in a %.2f m/s current (%.1f m out)",

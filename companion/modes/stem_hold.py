@@ -32,6 +32,13 @@ drops back onto the point under the station keeper at once, as GUIDED's approach
 (:class:`~companion.modes.holding.ApproachTask`): the legs to the abeam point would run it past the
 circle with the current, and a boat already running down the current would coast through the
 circle while it turns (``docs/tuning.md``)."""
+STEM_SIDE_AHEAD_S = 2.0
+"""A boat with its bow down the current holds on the side of the current's line through the circle's
+centre where it will be this long ahead along its bow at its speed over ground, not where it is
+(other boats: where it is): a boat arriving from
+upstream, 1 m east of the line with its bow 30 deg west of downstream at 3.5 m/s, was sent to the
+east abeam point; its turn onto that leg ran through the circle and the hold's turn then swept it
+10 m off the circle (docs/tuning.md)."""
 STEM_NEAR_CIRCLE_M = 0.5
 STEM_REACH_S = 60.0
 """Above the idle creep a hold is given up (flown once more, then circling) when the boat has not
@@ -85,12 +92,20 @@ class StemHold:
     feed-forward) onto the hold point."""
 
     def __init__(self, params: ParamStore, radius_m: float, current_ne_mps: tuple[float, float],
-                 pos_ne: tuple[float, float], heading_rad: float) -> None:
+                 pos_ne: tuple[float, float], heading_rad: float,
+                 vel_ne_mps: tuple[float, float] = (0.0, 0.0)) -> None:
+        """``pos_ne``, ``heading_rad``, ``vel_ne_mps``: where the boat is (north, east m from the
+        circle's centre), its bow, and its velocity over ground (the side of the hold,
+        :data:`STEM_SIDE_AHEAD_S`)."""
         self.below_creep = math.hypot(*current_ne_mps) < params.get_or("USV_HOLD_CREEP", 0.0)
         """The boat cannot stand on the hold point (:mod:`companion.guidance.stem`): wider abeam
         point, hold point turned downstream."""
+        ahead_m = STEM_SIDE_AHEAD_S * math.hypot(*vel_ne_mps)
+        if current_along_mps(heading_rad, current_ne_mps) <= 0.0:
+            ahead_m = 0.0  # bow across or up the current: the side it is on
+        ahead_ne = (pos_ne[0] + ahead_m * math.cos(heading_rad), pos_ne[1] + ahead_m * math.sin(heading_rad))
         *self.route, self.hold_ne = stem_route(
-            (0.0, 0.0), radius_m, current_ne_mps, pos_ne,
+            (0.0, 0.0), radius_m, current_ne_mps, ahead_ne,
             *((CREEP_ABEAM_M, CREEP_HOLD_DOWNSTREAM_RAD) if self.below_creep else ()))
         abeam = self.route[0]
         from_downstream = along_across_m(pos_ne, abeam, current_ne_mps)[0] > CREEP_HANDOVER_M
@@ -127,7 +142,8 @@ class StemHold:
     @classmethod
     def when_needed(cls, params: ParamStore, current_ne_mps: tuple[float, float] | None, radius_m: float,
                     pos_ne: tuple[float, float], heading_rad: float,
-                    strength_mps: float | None = None) -> StemHold | None:
+                    strength_mps: float | None = None,
+                    vel_ne_mps: tuple[float, float] = (0.0, 0.0)) -> StemHold | None:
         """A hold on ``current_ne_mps`` (north, east m/s; ``None``: unknown) when ``strength_mps``
         (default: its speed) is at least ``USV_CIRC_HOLD_C``, else ``None`` (circle)."""
         limit = params.get_or("USV_CIRC_HOLD_C", 0.0)
@@ -135,7 +151,7 @@ class StemHold:
             return None
         if (math.hypot(*current_ne_mps) if strength_mps is None else strength_mps) < limit:
             return None
-        return cls(params, radius_m, current_ne_mps, pos_ne, heading_rad)
+        return cls(params, radius_m, current_ne_mps, pos_ne, heading_rad, vel_ne_mps)
 
     def _drops_back(self, pos_ne: tuple[float, float], heading_rad: float) -> bool:
         """More than :data:`STEM_DROP_BACK_M` upstream of the hold point, more upstream than across

@@ -237,6 +237,30 @@ def test_hold_on_the_circle_drops_back_from_upstream_under_the_keeper(north_m: f
         assert math.cos(target.course_rad) < -0.3  # bow into the current (upstream is south)
 
 
+@pytest.mark.parametrize(("north_m", "east_m", "bow_deg", "side"), [
+    (-14.0, 1.0, 330.0, -1.0),  # from upstream, east of the line, bow 30 deg west of downstream: west
+    (-14.0, 1.0, 30.0, 1.0),    # the same, bow 30 deg east of downstream: east
+    (-14.0, -1.0, 30.0, 1.0),   # west of the line heading east of it: east
+    (0.0, 15.0, 270.0, 1.0),    # across the current, heading for the circle: the near side
+    (14.0, 1.0, 210.0, 1.0),    # from downstream, bow up the current: the side it is on
+])
+def test_hold_on_the_circle_is_on_the_side_the_boat_is_heading_for(north_m: float, east_m: float,
+                                                                    bow_deg: float, side: float) -> None:
+    """Current 1.2 m/s toward north; the boat at 3.5 m/s.  With the bow down the current, the hold (and
+    its abeam point) is on the side of the current's line where the boat will be 2 s ahead along its
+    bow, else on the side it is on: a boat arriving from
+    upstream 1 m east of the line with its bow 30 deg west of downstream was sent east, and its turn
+    onto that leg ran through the circle (the hold then ended 10 m off it)."""
+    params = ParamStore(all_param_defs())
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    task = CircleTask(params, point, 2.0, drift=_observer_after_two_legs((1.2, 0.0)))
+    bow = math.radians(bow_deg)
+    task.step(_nav(frame, north_m, east_m, 3.5 * math.cos(bow), 3.5 * math.sin(bow)), 0.1)
+    assert task.stem is not None
+    assert task.stem.hold_ne[1] * side > 1.5 and task.stem.route[0][1] * side > 5.0
+
+
 def test_hold_on_the_circle_arrives_slowly_at_the_abeam_point() -> None:
     """1.2 m/s across the leg: the leg to the abeam point (5 m outside the circle) brakes to
     1 m/s at its end, where the station keeper takes over (at the corner speed, 2.5 m/s,
