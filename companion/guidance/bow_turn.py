@@ -48,12 +48,12 @@ class KeeperTurn:
     """The heading and surge a holding task commands for the station keeper's output.
 
     * Farther than :data:`POWERED_TURN_RAD` off the keeper's heading, while the boat moves
-      downstream over ground, the surge is at least ``powered_turn_mps`` through the water (over
-      ground: plus the current along the bow) and :attr:`powered` is set (``powered_turn_mps``
-      ``None``: never, below the idle creep, where the creep turns the boat), unless the boat is more than
-      :data:`UPSTREAM_IDLE_M` upstream of its point.  A boat moving upstream (an arrival running
-      on past its point) or well upstream of it turns at idle: the current brings it back, and a
-      powered turn would drive it farther up.
+      downstream over ground, the turn is powered (:attr:`powered`): the surge is at least
+      ``powered_turn_mps`` through the water, over ground that plus the current along the bow
+      (``powered_turn_mps`` ``None``: never, below the idle creep, where the creep turns the
+      boat), unless the boat is more than :data:`UPSTREAM_IDLE_M` upstream of its point.  A boat
+      moving upstream (an arrival running on past its point) or well upstream of it turns at idle:
+      the current brings it back, and a powered turn would drive it farther up.
     * A U-turn (:class:`~companion.guidance.waypoints.UTurnLatch`) starts the way the boat already
       turns when it turns faster than :data:`~companion.guidance.holding.KEEP_TURN_RADPS`, else the
       way of the heading error, and keeps that way."""

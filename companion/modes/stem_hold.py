@@ -33,12 +33,11 @@ drops back onto the point under the station keeper at once, as GUIDED's approach
 circle with the current, and a boat already running down the current would coast through the
 circle while it turns (``docs/tuning.md``)."""
 STEM_SIDE_AHEAD_S = 2.0
-"""A boat with its bow down the current holds on the side of the current's line through the circle's
-centre where it will be this long ahead along its bow at its speed over ground, not where it is
-(other boats: where it is): a boat arriving from
-upstream, 1 m east of the line with its bow 30 deg west of downstream at 3.5 m/s, was sent to the
-east abeam point; its turn onto that leg ran through the circle and the hold's turn then swept it
-10 m off the circle (docs/tuning.md)."""
+"""A boat with its bow down the current holds on the side of the current's line through the
+circle's centre where it will be this long ahead along its bow at its speed over ground; any other
+boat, on the side where it is.  A boat arriving from upstream, 1 m east of the line with its bow
+30 deg west of downstream at 3.5 m/s, was sent to the east abeam point: its turn onto that leg ran
+through the circle, and the hold's turn then swept it 10 m off the circle (``docs/tuning.md``)."""
 STEM_NEAR_CIRCLE_M = 0.5
 STEM_REACH_S = 60.0
 """Above the idle creep a hold is given up (flown once more, then circling) when the boat has not
