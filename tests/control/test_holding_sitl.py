@@ -103,7 +103,7 @@ async def test_loiter_in_slack_water_can_stop_the_engine_and_drift() -> None:
 
 
 async def test_a_circle_item_downstream_of_a_held_one_in_a_flood_is_not_swept_past() -> None:
-    """1.2 m/s toward south against 6 m/s of wind: after holding on the first circle, the boat runs
+    """1.2 m/s toward south with 6 m/s of wind along it: after holding on the first circle, the boat runs
     25 m down the current to the next circle item at 3-4 m/s over ground and must turn into the
     current to hold there.  That turn is powered (USV_WP_TURN_SPD through the water, steered as a
     boat making way): turned by station keeping's speed loop, which idled the jet because the boat
