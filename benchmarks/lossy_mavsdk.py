@@ -5,8 +5,8 @@ connects with ``udpin://127.0.0.1:Q`` and, relying on MAVSDK's own timeouts and 
 call is repeated up to ``--attempts`` times when MAVSDK gives up, as a script would), sets two
 parameters and reads them back, uploads an ``N``-item mission (item 0 the first waypoint, as
 MAVSDK sends it) or ``N`` rally points with MissionRaw, downloads and compares them, then (unless
-``--no-arm``) arms and disarms.  Prints one JSON object (per
-phase: completed, wall seconds, calls needed); exit status 0 when every phase completed.
+``--no-arm``) arms and disarms.  Prints one JSON object (per phase: completed, wall seconds, calls
+needed, and why each failed call failed); exit status 0 when every phase completed.
 """
 
 from __future__ import annotations
@@ -24,13 +24,15 @@ HOME_LAT_E7, HOME_LON_E7 = 417_700_000, 1_234_300_000
 
 
 async def retried(call: Callable[[], Awaitable[Any]], attempts: int, timeout_s: float) -> tuple[Any, int]:
-    last: Exception | None = None
+    """``call()`` until it succeeds, at most ``attempts`` times; the result and the calls needed.
+    Raises RuntimeError naming why each failed call failed (MAVSDK's result, e.g. TIMEOUT)."""
+    failures: list[str] = []
     for attempt in range(1, attempts + 1):
         try:
             return await asyncio.wait_for(call(), timeout_s), attempt
         except Exception as exc:  # MAVSDK's timeout or a refusal: a script tries again
-            last = exc
-    raise RuntimeError(f"failed after {attempts} calls: {last!r}")
+            failures.append(f"{type(exc).__name__}: {str(exc).split(';')[0][:80]}")
+    raise RuntimeError(f"failed after {attempts} calls: {failures}")
 
 
 async def run(port: int, items: int, attempts: int, plan_type: str = "mission",
