@@ -1,4 +1,5 @@
-"""Angle wrapping shared by guidance, control and telemetry (radians)."""
+"""Angle wrapping, and a vector's component along a heading, shared by guidance, control and
+telemetry (radians)."""
 
 from __future__ import annotations
 
@@ -13,3 +14,10 @@ def wrap_pi(angle_rad: float) -> float:
 def wrap_2pi(angle_rad: float) -> float:
     """Wrap an angle to [0, 2*pi) (headings and courses, clockwise from north)."""
     return angle_rad % (2.0 * math.pi)
+
+
+def current_along_mps(heading_rad: float, current_ne_mps: tuple[float, float] | None) -> float:
+    """The current's component along the bow (m/s, positive from astern); 0 without an estimate."""
+    if current_ne_mps is None:
+        return 0.0
+    return current_ne_mps[0] * math.cos(heading_rad) + current_ne_mps[1] * math.sin(heading_rad)

@@ -60,7 +60,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from companion.angles import wrap_pi
+from companion.angles import current_along_mps, wrap_pi
 from companion.control.actuator import Saturation
 from companion.control.am_speed import AmSpeedConfig, AmSpeedLaw
 from companion.control.pid import LowPass
@@ -202,10 +202,7 @@ class ActiveModelController:
         """The commanded speed through the water: over ground minus the current along the bow
         (the commanded speed itself without an estimate)."""
         current = self.current_source() if self.current_source is not None else None
-        if current is None:
-            return target.speed_mps
-        along_mps = current[0] * math.cos(nav.heading_rad) + current[1] * math.sin(nav.heading_rad)
-        return target.speed_mps - along_mps
+        return target.speed_mps - current_along_mps(nav.heading_rad, current)
 
     def _allocate_near_standstill(self, w_sin: float, w_cos: float, nav: NavState, target: ControlTarget,
                                   e_psi: float, r_d: float, capped: bool = True) -> tuple[float, float]:

@@ -72,7 +72,7 @@ class KeeperTurn:
         the boat's heading and yaw rate, how far it is downstream of its point
         (:func:`along_across_m`; negative: upstream), how fast it moves downstream over ground
         (negative: upstream) and the current's component along the bow (m/s, positive from astern;
-        :func:`~companion.guidance.current.current_along_mps`)."""
+        :func:`~companion.angles.current_along_mps`)."""
         err = wrap_pi(keeper_heading_rad - heading_rad)
         speed = surge_mps
         self.powered = (self.powered_turn_mps is not None and abs(err) > POWERED_TURN_RAD

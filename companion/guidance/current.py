@@ -113,10 +113,3 @@ def crab_heading(course_rad: float, water_speed_mps: float, current_ne_mps: tupl
 def water_speed_mps(vel_north_mps: float, vel_east_mps: float, current_ne_mps: tuple[float, float]) -> float:
     """Speed through the water: |v_g - c^| (m/s)."""
     return math.hypot(vel_north_mps - current_ne_mps[0], vel_east_mps - current_ne_mps[1])
-
-
-def current_along_mps(heading_rad: float, current_ne_mps: tuple[float, float] | None) -> float:
-    """The current's component along the bow (m/s, positive from astern); 0 without an estimate."""
-    if current_ne_mps is None:
-        return 0.0
-    return current_ne_mps[0] * math.cos(heading_rad) + current_ne_mps[1] * math.sin(heading_rad)

@@ -19,8 +19,8 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
+from companion.angles import current_along_mps
 from companion.control.target import ControlTarget
-from companion.guidance.current import current_along_mps
 from companion.guidance.geo import wrap_2pi, wrap_pi
 from companion.guidance.los import LegErrors, LosFollower
 

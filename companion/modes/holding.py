@@ -21,9 +21,9 @@ import math
 from collections.abc import Callable
 from dataclasses import replace
 
+from companion.angles import current_along_mps
 from companion.control.target import ControlTarget
 from companion.guidance.bow_turn import KeeperTurn, along_across_m, downstream_speed_mps
-from companion.guidance.current import current_along_mps
 from companion.guidance.geo import LocalFrame, wrap_2pi
 from companion.guidance.hold_params import HOLD_CURRENT, current_station_gains, orbit_gains
 from companion.guidance.holding import (

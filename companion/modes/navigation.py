@@ -16,10 +16,11 @@ from collections.abc import Callable
 from dataclasses import replace
 from typing import Protocol
 
+from companion.angles import current_along_mps
 from companion.clock import StepTimer
 from companion.control.target import ControlRequest, ControlTarget
 from companion.guidance.circle import CircleTracker
-from companion.guidance.current import CurrentObserver, crab_heading, current_along_mps, water_speed_mps
+from companion.guidance.current import CurrentObserver, crab_heading, water_speed_mps
 from companion.guidance.geo import LocalFrame, distance_bearing, wrap_2pi, wrap_pi
 from companion.guidance.los import LosFollower, LosType
 from companion.guidance.params import circle_gains, leg_config, los_gains, station_gains

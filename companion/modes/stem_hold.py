@@ -7,9 +7,9 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
+from companion.angles import current_along_mps
 from companion.control.target import ControlTarget
 from companion.guidance.bow_turn import KeeperTurn, along_across_m, downstream_speed_mps
-from companion.guidance.current import current_along_mps
 from companion.guidance.geo import wrap_pi
 from companion.guidance.hold_params import current_station_gains
 from companion.guidance.holding import CurrentStationKeeper
