@@ -6,6 +6,10 @@ allows; ``speedup`` > 0 caps the rate at that multiple of real time (ArduPilot S
 ``--speedup``).  With ``lockstep=False`` the boat never waits (real-time mode for people
 and QGroundControl; pair with ``speedup=1``).  The wait for a frame is bounded by a
 wall-clock ``ack_timeout_s`` so a dead companion slows the simulation but never hangs it.
+Behind its pace by more than :data:`MAX_LAG_S` of wall time (the first steps import and load
+compiled kernels for about 2 s), the pacing starts again from where the simulation is, instead
+of running flat out to make up the lost time: ``speedup`` stays a cap for the ground stations
+watching it (catching up ran 40 simulated seconds in half a wall second).
 
 After each step the driver hands the event loop to the companion's other tasks (links,
 timers, telemetry) when any is ready to run, which in lockstep is whenever the step woke a
@@ -33,6 +37,8 @@ from sim_bridge.simboat import SimulatedBoat
 
 IO_POLL_S = 0.00025
 """Longest wall time between two passes of the event loop while stepping in lockstep."""
+MAX_LAG_S = 0.25
+"""Wall seconds behind the paced schedule that are made up by running faster; more is dropped."""
 
 
 class Lockstep:
@@ -113,6 +119,8 @@ class Lockstep:
             ahead_s = self._wall0 + (self.clock.now_s() - self._sim0) / self.speedup - time.monotonic()
             if ahead_s > 0.002:
                 await asyncio.sleep(ahead_s)
+            elif ahead_s < -MAX_LAG_S:
+                self._reset_pacing()
 
     async def run_for(self, sim_seconds: float) -> None:
         end = self.clock.now_s() + sim_seconds - 1e-9

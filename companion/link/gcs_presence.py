@@ -16,8 +16,14 @@ The rule (:meth:`GcsPresence.silent_for`): a ground station is silent for ``time
 On a boat both clocks are one, so the rule is exactly ``timeout_s``; a test ground station that
 paces its heartbeats by simulated time is judged by simulated time alone.  The periods are the
 median of the last :data:`PERIOD_SAMPLES` intervals between HEARTBEATs (after a single heartbeat:
-1 Hz of wall time, pace unknown).  Anything else the ground station sends (a command, a mission
-upload, MANUAL_CONTROL) shows it is there too: it ends the silence but does not change the periods.
+1 Hz of wall time).  Which clock paces the station is read only from intervals in which the vehicle
+clock ran at least :data:`PACE_EVIDENCE_RATIO` times faster than the wall clock: while the clocks
+run together (a boat, or a simulator that stalled while it started and then caught up) any
+station looks paced by the vehicle clock, and taking that for evidence fired the failsafe on a
+healthy 1 Hz station in the first seconds of ``usv sitl --speedup 20`` under load.  Without
+evidence the wall-clock condition applies, which changes nothing while the clocks run together.
+Anything else the ground station sends (a command, a mission upload, MANUAL_CONTROL) shows it is there
+too: it ends the silence but does not change the periods.
 """
 
 from __future__ import annotations
@@ -38,6 +44,9 @@ VEHICLE_PACED_MAX_S = 1.5
 """Heartbeats at most this many vehicle-seconds apart: the station keeps pace with the vehicle
 clock, and vehicle time alone judges it."""
 PERIOD_SAMPLES = 5
+PACE_EVIDENCE_RATIO = 2.0
+"""An interval tells which clock paces the station only if the vehicle clock ran this many times
+faster than the wall clock during it."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -82,10 +91,11 @@ class GcsPresence:
         """The current silence (``None``: never heard)."""
         if self.heard_s is None:
             return None
+        period_vehicle_s, period_wall_s = math.inf, NOMINAL_PERIOD_S  # pace unknown: the wall rule
         if self._intervals:
-            period_vehicle_s = statistics.median(i[0] for i in self._intervals)
             period_wall_s = statistics.median(i[1] for i in self._intervals)
-        else:  # one heartbeat so far: assume MAVLink's 1 Hz of wall time, pace unknown
-            period_vehicle_s, period_wall_s = math.inf, NOMINAL_PERIOD_S
+            evidence = [v for v, w in self._intervals if v >= PACE_EVIDENCE_RATIO * w]
+            if evidence:
+                period_vehicle_s = statistics.median(evidence)
         return Silence(self.clock.now_s() - self.heard_s, self.wall.now_s() - self._heard_wall_s,
                        period_vehicle_s, period_wall_s)

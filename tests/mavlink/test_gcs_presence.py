@@ -86,3 +86,21 @@ def test_manual_control_keeps_a_station_present_without_changing_its_heartbeat_p
 
 def test_never_heard_is_not_lost() -> None:
     assert Clocks(speedup=10.0).presence.silence() is None
+
+
+def test_a_simulator_that_stalls_while_starting_then_catches_up_does_not_lose_a_1_hz_station() -> None:
+    """``usv sitl --speedup 20`` on a loaded machine: the vehicle clock stands still for the first
+    two wall seconds (heartbeats 0 vehicle-seconds apart look paced by the vehicle clock), then runs
+    at 20x.  The station still sends its heartbeat every wall second and must never count as lost."""
+    c = Clocks(speedup=20.0)
+    for _ in range(3):  # stalled: heartbeats arrive, the vehicle clock does not move
+        c.presence.heard(heartbeat=True)
+        c.run_wall(1.0, speedup=0.0)
+    while c.vehicle.now_s() < 300.0:
+        c.presence.heard(heartbeat=True)
+        for _ in range(10):
+            c.run_wall(0.1, speedup=100.0 if c.vehicle.now_s() < 60.0 else 20.0)  # catching up, then 20x
+            silence = c.presence.silence()
+            assert silence is not None and not silence.exceeds(FS_GCS_TIMEOUT_S), c.vehicle.now_s()
+    c.presence.heard(heartbeat=True)
+    assert abs(c.lost_after_s(FS_GCS_TIMEOUT_S) - 60.0) < 0.1  # then silent: 3 wall s at 20x
