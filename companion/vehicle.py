@@ -41,6 +41,7 @@ from companion.mission.store import MissionStore
 from companion.modes.auto_items import MissionAction
 from companion.modes.base import ModeOutput
 from companion.modes.manager import ModeManager
+from companion.modes.station_trials import StationTrials
 from companion.params import ParamStore
 
 __all__ = ["FORCE_MAGIC", "NAV_STALE_S", "DestinationCheck", "MissionState", "ModeCheck", "PrearmCheck",
@@ -125,6 +126,8 @@ class Vehicle:
         map writes these into every frame (see :mod:`companion.actuators.overrides`)."""
         self.relays: dict[int, bool] = {}
         """DO_SET_RELAY: relay instance -> on (its channel is in ``servo_overrides_us``)."""
+        self.station_trials = StationTrials()
+        """Where keeping station bow into the current failed (LOITER, GUIDED, RTL: ModeHost)."""
         self.boot_s = ctx.clock.now_s()
         self._prearm_checks: NamedChecks[str | None] = NamedChecks(
             "pre-arm", [("position", _check_position), ("attitude", _check_attitude)])

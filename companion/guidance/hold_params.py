@@ -20,6 +20,11 @@ PARAMS: tuple[ParamDef, ...] = (
     ParamDef("USV_HOLD_CREEP", 0.7, 0.0, 3.0, "m/s",
              "Idle creep of the jet through the water (the simulated boat: 0.7 m/s, usv bench nav "
              "'idle_creep_mps'): a current stronger than this is stemmed bow-on, a weaker one orbited."),
+    ParamDef("USV_HOLD_TRY", 0.25, 0.0, 3.0, "m/s",
+             "LOITER and GUIDED first keep station bow into a current between this and USV_HOLD_CREEP "
+             "(wind from ahead can hold the boat where the current alone cannot), and orbit once the "
+             "current does not set the idling boat back. Not a boat already orbiting, nor again in a "
+             "current where it failed (10 min); RTL orbits. At or above USV_HOLD_CREEP: never."),
     ParamDef("USV_HOLD_ORB_SPD", 1.0, 0.5, 5.0, "m/s",
              "Speed through the water on the holding orbit (raised with the current so the crab stays "
              "steerable)."),

@@ -71,8 +71,10 @@ class CreepWatch:
 
 
 def orbit_instead(host: ModeHost, task: CurrentStationTask, nav: NavState) -> OrbitTask:
-    """The drift-compensated orbit round ``task``'s point, for a station keeper that creeps."""
+    """The drift-compensated orbit round ``task``'s point, for a station keeper that creeps (the
+    vehicle's :class:`~companion.modes.holding.StationTrials` remembers it)."""
     current = task.current()
+    host.station_trials.failed(current, nav.t_s)
     return OrbitTask(host.params, task.point, task.current.source, current,
                      orbit_clockwise(nav.heading_rad, nav.r_radps, current))
 
@@ -88,9 +90,43 @@ def orbit_if_creeping(host: ModeHost, nav: NavState, task: TaskT, watch: CreepWa
                       dt_s: float) -> TaskT | OrbitTask:
     """``task``, or the orbit round its point (:func:`orbit_instead`) once it is a station keeper
     that ``watch`` sees creep: the drift is weaker than the idle creep (GUIDED and RTL on their
-    point; LOITER runs its own choice)."""
-    if isinstance(task, CurrentStationTask) and (
-            watch.creeping(host, nav, task.keeper.heading_rad, dt_s, POINT_ORBIT_AFTER_S)
+    point; LOITER runs its own choice); a keeper tried in a weak current, as :func:`trial_creeping`
+    says."""
+    if isinstance(task, CurrentStationTask) and (trial_creeping(host, nav, task, watch, dt_s) or (
+            not task.trial and watch.creeping(host, nav, task.keeper.heading_rad, dt_s, POINT_ORBIT_AFTER_S))
             or watch.stalled(host, nav, task.distance_m)):
         return orbit_instead(host, task, nav)
     return task
+
+
+TRIAL_PAST_M = 1.0
+SET_BACK_MPS = 0.15
+"""A station keeping trial fails when the idling boat, more than TRIAL_PAST_M upstream of its point,
+is not set back down the current at SET_BACK_MPS or more."""
+TRIAL_SETTLE_S = 25.0
+TRIAL_SETTLED_M = 2.5
+"""A station keeping trial is also given up while farther than TRIAL_SETTLED_M from its point
+TRIAL_SETTLE_S after it started (wind across the current sets the idling boat sideways and the
+keeper ferries it to and fro 10 m wide without the creep ever showing).  Not sooner: a boat that
+arrives heading down the current turns round under power and runs up to 8 m off first."""
+
+
+def trial_creeping(host: ModeHost, nav: NavState, task: CurrentStationTask, watch: CreepWatch,
+                   dt_s: float) -> bool:
+    """A station keeping trial (:func:`~companion.modes.holding.trial_current`) fails: with the jet
+    idling more than :data:`TRIAL_PAST_M` upstream of its point, the boat is not set back down the
+    current (:data:`SET_BACK_MPS`) for :data:`ORBIT_AFTER_S` (net): it creeps on up, or the keeper
+    ferries it to and fro across; or it is not standing on its point after :data:`TRIAL_SETTLE_S`.
+    Not the creep signature of a keeper on its point: arriving at 1-2 m/s, the boat runs a few
+    metres up past the point, and the keeper ferries it back down at 0.4 m/s with its bow 70 deg
+    off upstream and the jet idling, which that signature takes for creep."""
+    if not task.trial:
+        return False
+    if nav.t_s - task.started_s > TRIAL_SETTLE_S and task.distance_m > TRIAL_SETTLED_M:
+        return True
+    current = task.current()
+    speed = math.hypot(*current)
+    down_mps = (nav.vel_north_mps * current[0] + nav.vel_east_mps * current[1]) / max(speed, 1e-6)
+    at_idle = host.control.mapper.throttle <= IDLE_THROTTLE
+    creep = at_idle and down_mps < SET_BACK_MPS and task.downstream_m < -TRIAL_PAST_M
+    return watch.count(creep, dt_s, ORBIT_AFTER_S)

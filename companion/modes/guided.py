@@ -36,7 +36,8 @@ class GuidedMode(NavMode):
         assert nav is not None
         self._target = None
         here = (nav.lat_deg, nav.lon_deg)
-        self.task = hold_task(host, here, nav) or StationTask(host.params, here, nav.heading_rad)
+        self.task = (hold_task(host, here, nav, try_station=True)
+                     or StationTask(host.params, here, nav.heading_rad))
 
     def update(self, host: ModeHost, nav: NavState) -> ModeOutput:
         params = host.params
@@ -52,7 +53,7 @@ class GuidedMode(NavMode):
             if self._target.radius_m and self._target.radius_m > 0:
                 self.task = CircleTask(params, point, self._target.radius_m)
             else:
-                self.task = (hold_task(host, point, nav)
+                self.task = (hold_task(host, point, nav, try_station=True)
                              or StationTask(params, point, nav.heading_rad))
         dt = self.dt(nav)
         self.task = orbit_if_creeping(host, nav, self.task, self.watch, dt)

@@ -73,15 +73,20 @@ class CurrentStationTask:
         self.turn = KeeperTurn(params.get("USV_WP_TURN_SPD"))
         self.distance_m = 0.0
         self.cross_track_m = 0.0
+        self.trial = False
+        """Tried in a current weaker than the idle creep (:func:`trial_current`)."""
+        self.downstream_m = 0.0
+        """Where the boat is along the current from the point (m, downstream positive)."""
+        self.started_s = 0.0
 
     def step(self, nav: NavState, dt_s: float) -> ControlTarget:
         current = self.current()
         pos_ne = self.frame.to_ne(nav.lat_deg, nav.lon_deg)
         out = self.keeper.update(pos_ne, current, dt_s)
         self.distance_m = out.distance_m
+        self.downstream_m = along_across_m(pos_ne, (0.0, 0.0), current)[0]
         heading, speed = self.turn.command(
-            out.heading_rad, out.surge_speed_mps, nav.heading_rad, nav.r_radps,
-            along_across_m(pos_ne, (0.0, 0.0), current)[0],
+            out.heading_rad, out.surge_speed_mps, nav.heading_rad, nav.r_radps, self.downstream_m,
             downstream_speed_mps((nav.vel_north_mps, nav.vel_east_mps), current),
             current_along_mps(nav.heading_rad, current))
         return ControlTarget(heading, speed, is_heading=True, hold_station=not self.turn.powered,
@@ -118,33 +123,74 @@ def _current_source(host: ModeHost) -> CurrentSource:
     return latest
 
 
+TRIAL_MAX_TURN_RADPS = math.radians(20.0)
+"""A boat turning faster than this (an orbit: 30-50 deg/s) keeps orbiting rather than try to keep
+station in a weak current: coming out of a turn at orbit speed, the idle jet let it coast 9 m off
+before the creep was seen, and it joined the orbit from there 13 m out (in-process, 0.3 m/s with
+6 m/s of wind against it)."""
+
+
 def strategy(host: ModeHost) -> HoldStrategy:
     """How the point will be held with the estimate of this moment (LEGACY: without one, or
     ``USV_HOLD_MODE`` 0).  The choice is the water current's; wind against the current can leave
     a drift weaker than the idle creep, which :class:`~companion.modes.creep.CreepWatch` finds on
     the point (the guidance observer's drift is no substitute: it sees the wind's sideways leeway,
-    not its push along the bow; ``docs/tuning.md``)."""
+    not its push along the bow; ``docs/tuning.md``).  Where it found it in this current before
+    (:class:`~companion.modes.station_trials.StationTrials`), ORBIT at once."""
     if int(host.params.get("USV_HOLD_MODE")) != HOLD_CURRENT:
         return HoldStrategy.LEGACY
     est = host.water_current
     if est is None:
         return HoldStrategy.LEGACY
-    return pick_strategy((est.north_mps, est.east_mps), est.confidence, host.params.get("USV_HOLD_CREEP"))
+    current = (est.north_mps, est.east_mps)
+    kind = pick_strategy(current, est.confidence, host.params.get("USV_HOLD_CREEP"))
+    if kind == HoldStrategy.STATION and host.station_trials.ruled_out(current, host.now_s()):
+        return HoldStrategy.ORBIT
+    return kind
 
 
-def hold_task(host: ModeHost, point: tuple[float, float],
-              nav: NavState) -> CurrentStationTask | OrbitTask | None:
+def trial_current(host: ModeHost) -> tuple[float, float] | None:
+    """The current (north, east m/s) in which a hold first tries keeping station bow into it
+    (:func:`hold_task`; not a boat already orbiting, :data:`TRIAL_MAX_TURN_RADPS`): between
+    ``USV_HOLD_TRY`` and ``USV_HOLD_CREEP``, standing out of its uncertainty, and not a current in
+    which station keeping failed before (:class:`~companion.modes.station_trials.StationTrials`);
+    else ``None``.  Wind from ahead slows the idle creep, and then the boat stands on its point
+    where the current alone could not hold it (in-process, 0.3-0.5 m/s with 6 m/s of wind along
+    the current: LOITER within 0.3-0.7 m of its point; orbiting 4.3-9.9 m)."""
+    if int(host.params.get("USV_HOLD_MODE")) != HOLD_CURRENT:
+        return None
+    est = host.water_current
+    if est is None:
+        return None
+    current = (est.north_mps, est.east_mps)
+    params = host.params
+    if (pick_strategy(current, est.confidence, params.get("USV_HOLD_TRY")) != HoldStrategy.STATION
+            or est.speed_mps > params.get("USV_HOLD_CREEP")
+            or host.station_trials.ruled_out(current, host.now_s())):
+        return None
+    return current
+
+
+def hold_task(host: ModeHost, point: tuple[float, float], nav: NavState,
+              try_station: bool = False) -> CurrentStationTask | OrbitTask | None:
     """The task that holds ``point`` (lat, lon) in the current of this moment (:func:`strategy`),
-    ``None``: LEGACY."""
+    ``None``: LEGACY.  ``try_station`` (LOITER, GUIDED): a current weaker than the creep is first
+    held bow into it (:func:`trial_current`).  RTL does not try: AUTO, which usually follows it,
+    joins its first leg from the hold's orbit, and from rest bow into the current it turned onto
+    the leg the long way round (tuning grid: square 1.6 -> 6.7 m in one cell)."""
     kind = strategy(host)
     est = host.water_current
     if kind == HoldStrategy.LEGACY or est is None:
         return None
     current = (est.north_mps, est.east_mps)
-    if kind == HoldStrategy.STATION:
+    trial = (try_station and kind == HoldStrategy.ORBIT and trial_current(host) is not None
+             and abs(nav.r_radps) < TRIAL_MAX_TURN_RADPS)
+    if kind == HoldStrategy.STATION or trial:
         upstream = math.atan2(-est.east_mps, -est.north_mps)
         heading = nav.heading_rad if math.cos(nav.heading_rad - upstream) > 0.0 else upstream
-        return CurrentStationTask(host.params, point, heading, _current_source(host), current)
+        task = CurrentStationTask(host.params, point, heading, _current_source(host), current)
+        task.trial, task.started_s = trial, nav.t_s
+        return task
     return OrbitTask(host.params, point, _current_source(host), current,
                      orbit_clockwise(nav.heading_rad, nav.r_radps, current))
 

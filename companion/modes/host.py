@@ -21,6 +21,7 @@ from companion.params import ParamStore
 
 if TYPE_CHECKING:
     from companion.modes.auto_items import MissionAction
+    from companion.modes.station_trials import StationTrials
 
 
 class ModeHost(Protocol):
@@ -68,6 +69,12 @@ class ModeHost(Protocol):
         ``toward_rad`` clockwise from north, ``confidence`` 0..1), ``None`` when there is none or
         it is stale (the chapter filter estimates no current).  Guidance uses it to pick how to
         hold a point (bow into the current, or orbit) and to brake on arrival."""
+        ...
+
+    @property
+    def station_trials(self) -> StationTrials:
+        """Where keeping station bow into the current failed (the creep was seen): LOITER, GUIDED
+        and RTL orbit at once in that current for a while."""
         ...
 
     def nav(self) -> NavState | None:

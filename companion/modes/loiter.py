@@ -11,7 +11,10 @@ A water jet idles with thrust (the simulated boat creeps at about 0.7 m/s at idl
 
 With a water-current estimate (``host.water_current``, ``USV_HOLD_MODE`` 1) the choice is made
 at once from it (:func:`companion.modes.holding.hold_task`): bow into a current stronger than
-``USV_HOLD_CREEP``, else a drift-compensated orbit at ``USV_TURN_RAD``; in slack water with
+``USV_HOLD_CREEP``, else a drift-compensated orbit at ``USV_TURN_RAD``, except that a current
+between ``USV_HOLD_TRY`` and ``USV_HOLD_CREEP`` is first held bow-on too (wind from ahead can
+hold the boat there), given up for the orbit when the current does not set the idling boat back
+(:func:`companion.modes.creep.trial_creeping`); in slack water with
 ``USV_HOLD_ESTOP`` 1 it stops the engine and drifts, restarting to return when the drift
 reaches ``USV_HOLD_DRIFT``.  Without one it learns:
 it starts by keeping station and switches to orbiting after about 3 s (net, leaky count) of the
@@ -29,7 +32,7 @@ from __future__ import annotations
 from companion.control.target import ControlRequest
 from companion.messages import ModeNumber, NavState
 from companion.modes.base import ModeOutput, StandardMode
-from companion.modes.creep import CreepWatch, orbit_instead
+from companion.modes.creep import CreepWatch, orbit_instead, trial_creeping
 from companion.modes.holding import CurrentStationTask, EngineStopTask, engine_stop_task, hold_task
 from companion.modes.host import ModeHost
 from companion.modes.navigation import CircleTask, NavMode, StationTask, param
@@ -53,7 +56,8 @@ class LoiterMode(NavMode):
         nav = host.nav()
         assert nav is not None  # requirements() checked the position estimate
         self.point = (nav.lat_deg, nav.lon_deg)
-        self.task = (engine_stop_task(host, self.point, nav) or hold_task(host, self.point, nav)
+        self.task = (engine_stop_task(host, self.point, nav)
+                     or hold_task(host, self.point, nav, try_station=True)
                      or StationTask(host.params, self.point, nav.heading_rad))
         self.watch = CreepWatch()
 
@@ -70,7 +74,8 @@ class LoiterMode(NavMode):
         if isinstance(task, StationTask | CurrentStationTask):
             # the jet idles bow on its station heading and still makes headway: too weak a drift
             # (with the estimate: wind against the current can cancel what the estimate says)
-            if self.watch.creeping(host, nav, task.keeper.heading_rad, dt):
+            if (trial_creeping(host, nav, task, self.watch, dt) if isinstance(task, CurrentStationTask)
+                    and task.trial else self.watch.creeping(host, nav, task.keeper.heading_rad, dt)):
                 if isinstance(task, CurrentStationTask):
                     self.task = orbit_instead(host, task, nav)
                 else:

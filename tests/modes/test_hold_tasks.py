@@ -8,11 +8,20 @@ evidence that a station keeper cannot hold the point (:class:`~companion.modes.h
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 from companion.guidance.geo import LocalFrame, distance_bearing
-from companion.messages import NavState
+from companion.guidance.holding import HoldStrategy
+from companion.messages import CurrentEstimate, NavState
 from companion.modes.creep import CreepWatch
-from companion.modes.holding import ApproachTask
+from companion.modes.holding import (
+    ApproachTask,
+    CurrentStationTask,
+    OrbitTask,
+    hold_task,
+    strategy,
+)
+from companion.modes.station_trials import StationTrials
 from companion.param_table import all_param_defs
 from companion.params import ParamStore
 
@@ -100,3 +109,68 @@ def test_a_keeper_idling_far_off_its_point_without_closing_is_given_up_for_the_o
     motoring = CreepWatch()
     assert not any(motoring.stalled(host, _nav(0.1 * k, 0.0, 0.0, 0.0, 0.5), 12.0)  # type: ignore[arg-type]
                    for k in range(400))
+
+
+class _TrialHost:
+    """What the hold choice reads of the mode host: parameters, the current estimate, the vehicle's
+    memory of failed station keeping and the clock."""
+
+    def __init__(self, current_ne_mps: tuple[float, float], confidence: float = 0.95) -> None:
+        self.params = ParamStore(all_param_defs())
+        self.water_current: CurrentEstimate | None = CurrentEstimate.from_components(
+            0.0, *current_ne_mps, 0.001, 0.001, confidence)
+        self.station_trials = StationTrials()
+        self.t_s = 100.0
+
+    def now_s(self) -> float:
+        return self.t_s
+
+
+def _trial(host: _TrialHost, nav: NavState, try_station: bool = True) -> bool:
+    task = hold_task(host, HOME, nav, try_station)  # type: ignore[arg-type]
+    if isinstance(task, CurrentStationTask):
+        assert task.trial
+        return True
+    assert isinstance(task, OrbitTask)
+    return False
+
+
+def test_a_weak_current_is_first_held_bow_on_unless_that_failed_in_it_or_the_boat_is_orbiting() -> None:
+    """0.4 m/s, weaker than the idle creep: LOITER or GUIDED on a straight course first keeps
+    station bow into it (wind from ahead can hold it there), a boat turning like an orbit keeps
+    orbiting, RTL orbits, and once station keeping was given up in this current the next hold
+    orbits at once, for 10 min."""
+    host = _TrialHost((0.4, 0.0))
+    straight = _nav(100.0, 0.0, 0.0, math.pi / 4, 1.2)
+    orbiting = replace(straight, r_radps=math.radians(35.0))
+    assert _trial(host, straight)
+    assert not _trial(host, orbiting)
+    assert not _trial(host, straight, try_station=False)  # RTL orbits
+    host.station_trials.failed((0.42, 0.05), 100.0)
+    assert not _trial(host, straight)
+    other = _TrialHost((0.0, -0.4))  # another current (the same memory): tried again
+    other.station_trials = host.station_trials
+    assert _trial(other, straight)
+    host.t_s = 100.0 + 601.0
+    assert _trial(host, straight)
+
+
+def test_no_try_below_usv_hold_try_without_confidence_or_when_switched_off() -> None:
+    straight = _nav(100.0, 0.0, 0.0, 0.0, 1.0)
+    assert not _trial(_TrialHost((0.2, 0.0)), straight)
+    assert not _trial(_TrialHost((0.4, 0.0), confidence=0.3), straight)
+    off = _TrialHost((0.4, 0.0))
+    off.params.set("USV_HOLD_TRY", 0.7)
+    assert not _trial(off, straight)
+
+
+def test_a_current_stronger_than_the_creep_is_orbited_where_station_keeping_failed_in_it() -> None:
+    """0.8 m/s with wind against it: the creep watch gave station keeping up; the next LOITER,
+    GUIDED or RTL hold in the same current orbits at once instead of creeping first."""
+    host = _TrialHost((0.0, 0.8))
+    straight = _nav(100.0, 0.0, 0.0, -math.pi / 2, 0.3)
+    task = hold_task(host, HOME, straight)  # type: ignore[arg-type]
+    assert isinstance(task, CurrentStationTask) and not task.trial
+    host.station_trials.failed((0.0, 0.8), 90.0)
+    assert strategy(host) == HoldStrategy.ORBIT  # type: ignore[arg-type]
+    assert isinstance(hold_task(host, HOME, straight), OrbitTask)  # type: ignore[arg-type]
