@@ -72,7 +72,7 @@ class CreepWatch:
 
 def orbit_instead(host: ModeHost, task: CurrentStationTask, nav: NavState) -> OrbitTask:
     """The drift-compensated orbit round ``task``'s point, for a station keeper that creeps (the
-    vehicle's :class:`~companion.modes.holding.StationTrials` remembers it)."""
+    vehicle's :class:`~companion.modes.station_trials.StationTrials` remembers it)."""
     current = task.current()
     host.station_trials.failed(current, nav.t_s)
     return OrbitTask(host.params, task.point, task.current.source, current,

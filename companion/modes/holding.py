@@ -34,7 +34,7 @@ from companion.guidance.holding import (
     pick_strategy,
 )
 from companion.guidance.los import LosFollower
-from companion.messages import NavState
+from companion.messages import CurrentEstimate, NavState
 from companion.modes.host import ModeHost
 from companion.modes.navigation import GotoTask, estimator_current
 from companion.params import ParamStore
@@ -78,6 +78,7 @@ class CurrentStationTask:
         self.downstream_m = 0.0
         """Where the boat is along the current from the point (m, downstream positive)."""
         self.started_s = 0.0
+        """When the trial started (vehicle clock)."""
 
     def step(self, nav: NavState, dt_s: float) -> ControlTarget:
         current = self.current()
@@ -149,26 +150,19 @@ def strategy(host: ModeHost) -> HoldStrategy:
     return kind
 
 
-def trial_current(host: ModeHost) -> tuple[float, float] | None:
-    """The current (north, east m/s) in which a hold first tries keeping station bow into it
-    (:func:`hold_task`; not a boat already orbiting, :data:`TRIAL_MAX_TURN_RADPS`): between
-    ``USV_HOLD_TRY`` and ``USV_HOLD_CREEP``, standing out of its uncertainty, and not a current in
-    which station keeping failed before (:class:`~companion.modes.station_trials.StationTrials`);
-    else ``None``.  Wind from ahead slows the idle creep, and then the boat stands on its point
-    where the current alone could not hold it (in-process, 0.3-0.5 m/s with 6 m/s of wind along
-    the current: LOITER within 0.3-0.7 m of its point; orbiting 4.3-9.9 m)."""
-    if int(host.params.get("USV_HOLD_MODE")) != HOLD_CURRENT:
-        return None
-    est = host.water_current
-    if est is None:
-        return None
+def trial_current(host: ModeHost, est: CurrentEstimate) -> bool:
+    """Whether a hold first tries keeping station bow into the current ``est`` (:func:`hold_task`;
+    not a boat already orbiting, :data:`TRIAL_MAX_TURN_RADPS`): between ``USV_HOLD_TRY`` and
+    ``USV_HOLD_CREEP``, standing out of its uncertainty, and not a current in which station
+    keeping failed before (:class:`~companion.modes.station_trials.StationTrials`).  Wind from
+    ahead slows the idle creep, and then the boat stands on its point where the current alone
+    could not hold it (in-process, 0.3-0.5 m/s with 6 m/s of wind along the current: LOITER within
+    0.3-0.7 m of its point; orbiting 4.3-9.9 m)."""
     current = (est.north_mps, est.east_mps)
     params = host.params
-    if (pick_strategy(current, est.confidence, params.get("USV_HOLD_TRY")) != HoldStrategy.STATION
-            or est.speed_mps > params.get("USV_HOLD_CREEP")
-            or host.station_trials.ruled_out(current, host.now_s())):
-        return None
-    return current
+    return (pick_strategy(current, est.confidence, params.get("USV_HOLD_TRY")) == HoldStrategy.STATION
+            and est.speed_mps <= params.get("USV_HOLD_CREEP")
+            and not host.station_trials.ruled_out(current, host.now_s()))
 
 
 def hold_task(host: ModeHost, point: tuple[float, float], nav: NavState,
@@ -183,8 +177,8 @@ def hold_task(host: ModeHost, point: tuple[float, float], nav: NavState,
     if kind == HoldStrategy.LEGACY or est is None:
         return None
     current = (est.north_mps, est.east_mps)
-    trial = (try_station and kind == HoldStrategy.ORBIT and trial_current(host) is not None
-             and abs(nav.r_radps) < TRIAL_MAX_TURN_RADPS)
+    trial = (try_station and kind == HoldStrategy.ORBIT and abs(nav.r_radps) < TRIAL_MAX_TURN_RADPS
+             and trial_current(host, est))
     if kind == HoldStrategy.STATION or trial:
         upstream = math.atan2(-est.east_mps, -est.north_mps)
         heading = nav.heading_rad if math.cos(nav.heading_rad - upstream) > 0.0 else upstream

@@ -74,8 +74,9 @@ class LoiterMode(NavMode):
         if isinstance(task, StationTask | CurrentStationTask):
             # the jet idles bow on its station heading and still makes headway: too weak a drift
             # (with the estimate: wind against the current can cancel what the estimate says)
-            if (trial_creeping(host, nav, task, self.watch, dt) if isinstance(task, CurrentStationTask)
-                    and task.trial else self.watch.creeping(host, nav, task.keeper.heading_rad, dt)):
+            trial = task if isinstance(task, CurrentStationTask) and task.trial else None
+            if (trial_creeping(host, nav, trial, self.watch, dt) if trial is not None
+                    else self.watch.creeping(host, nav, task.keeper.heading_rad, dt)):
                 if isinstance(task, CurrentStationTask):
                     self.task = orbit_instead(host, task, nav)
                 else:
