@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from typing import TypeVar
 
+from companion.guidance.bow_turn import downstream_speed_mps
 from companion.guidance.geo import wrap_pi
 from companion.guidance.holding import orbit_clockwise
 from companion.messages import NavState
@@ -113,7 +114,7 @@ arrives heading down the current turns round under power and runs up to 8 m off 
 
 def trial_creeping(host: ModeHost, nav: NavState, task: CurrentStationTask, watch: CreepWatch,
                    dt_s: float) -> bool:
-    """A station keeping trial (:func:`~companion.modes.holding.trial_current`) fails: with the jet
+    """A station keeping trial (:func:`~companion.modes.holding.tries_station`) fails: with the jet
     idling more than :data:`TRIAL_PAST_M` upstream of its point, the boat is not set back down the
     current (:data:`SET_BACK_MPS`) for :data:`ORBIT_AFTER_S` (net): it creeps on up, or the keeper
     ferries it to and fro across; or it is not standing on its point after :data:`TRIAL_SETTLE_S`.
@@ -124,9 +125,7 @@ def trial_creeping(host: ModeHost, nav: NavState, task: CurrentStationTask, watc
         return False
     if nav.t_s - task.started_s > TRIAL_SETTLE_S and task.distance_m > TRIAL_SETTLED_M:
         return True
-    current = task.current()
-    speed = math.hypot(*current)
-    down_mps = (nav.vel_north_mps * current[0] + nav.vel_east_mps * current[1]) / max(speed, 1e-6)
+    down_mps = downstream_speed_mps((nav.vel_north_mps, nav.vel_east_mps), task.current())
     at_idle = host.control.mapper.throttle <= IDLE_THROTTLE
     creep = at_idle and down_mps < SET_BACK_MPS and task.downstream_m < -TRIAL_PAST_M
     return watch.count(creep, dt_s, ORBIT_AFTER_S)

@@ -65,7 +65,8 @@ class CurrentStationTask:
     strategy = HoldStrategy.STATION
 
     def __init__(self, params: ParamStore, point: tuple[float, float], heading_rad: float,
-                 current: CurrentSource, initial_ne_mps: tuple[float, float]) -> None:
+                 current: CurrentSource, initial_ne_mps: tuple[float, float], trial: bool = False,
+                 started_s: float = 0.0) -> None:
         self.frame = LocalFrame(*point)
         self.point = point
         self.current = _Held(current, initial_ne_mps)
@@ -73,12 +74,12 @@ class CurrentStationTask:
         self.turn = KeeperTurn(params.get("USV_WP_TURN_SPD"))
         self.distance_m = 0.0
         self.cross_track_m = 0.0
-        self.trial = False
-        """Tried in a current weaker than the idle creep (:func:`trial_current`)."""
+        self.trial = trial
+        """Tried in a current weaker than the idle creep (:func:`tries_station`)."""
         self.downstream_m = 0.0
         """Where the boat is along the current from the point (m, downstream positive)."""
-        self.started_s = 0.0
-        """When the trial started (vehicle clock)."""
+        self.started_s = started_s
+        """When the task started (vehicle clock)."""
 
     def step(self, nav: NavState, dt_s: float) -> ControlTarget:
         current = self.current()
@@ -150,7 +151,7 @@ def strategy(host: ModeHost) -> HoldStrategy:
     return kind
 
 
-def trial_current(host: ModeHost, est: CurrentEstimate) -> bool:
+def tries_station(host: ModeHost, est: CurrentEstimate) -> bool:
     """Whether a hold first tries keeping station bow into the current ``est`` (:func:`hold_task`;
     not a boat already orbiting, :data:`TRIAL_MAX_TURN_RADPS`): between ``USV_HOLD_TRY`` and
     ``USV_HOLD_CREEP``, standing out of its uncertainty, and not a current in which station
@@ -169,7 +170,7 @@ def hold_task(host: ModeHost, point: tuple[float, float], nav: NavState,
               try_station: bool = False) -> CurrentStationTask | OrbitTask | None:
     """The task that holds ``point`` (lat, lon) in the current of this moment (:func:`strategy`),
     ``None``: LEGACY.  ``try_station`` (LOITER, GUIDED): a current weaker than the creep is first
-    held bow into it (:func:`trial_current`).  RTL does not try: AUTO, which usually follows it,
+    held bow into it (:func:`tries_station`).  RTL does not try: AUTO, which usually follows it,
     joins its first leg from the hold's orbit, and from rest bow into the current it turned onto
     the leg the long way round (tuning grid: square 1.6 -> 6.7 m in one cell)."""
     kind = strategy(host)
@@ -178,13 +179,12 @@ def hold_task(host: ModeHost, point: tuple[float, float], nav: NavState,
         return None
     current = (est.north_mps, est.east_mps)
     trial = (try_station and kind == HoldStrategy.ORBIT and abs(nav.r_radps) < TRIAL_MAX_TURN_RADPS
-             and trial_current(host, est))
+             and tries_station(host, est))
     if kind == HoldStrategy.STATION or trial:
         upstream = math.atan2(-est.east_mps, -est.north_mps)
         heading = nav.heading_rad if math.cos(nav.heading_rad - upstream) > 0.0 else upstream
-        task = CurrentStationTask(host.params, point, heading, _current_source(host), current)
-        task.trial, task.started_s = trial, nav.t_s
-        return task
+        return CurrentStationTask(host.params, point, heading, _current_source(host), current,
+                                  trial=trial, started_s=nav.t_s)
     return OrbitTask(host.params, point, _current_source(host), current,
                      orbit_clockwise(nav.heading_rad, nav.r_radps, current))
 
