@@ -49,6 +49,11 @@ PARAMS: tuple[ParamDef, ...] = (
              "Speed through the water of a U-turn onto a leg (USV_WP_UTURN), until the bow is within 45 deg "
              "of the leg: a jet turns on its smallest circle slowly (about 1.3 m radius at 1 m/s). With the "
              "bow into a current the boat is commanded this minus the current over ground (not below 0)."),
+    ParamDef("USV_WP_UTURN_OFS", 2.0, 0.0, 5.0, "m",
+             "A U-turn onto a leg (USV_WP_UTURN 1) started while keeping station bow into a current stronger "
+             "than USV_HOLD_CREEP: the boat first moves this far sideways, away from the turn, so the turn "
+             "(about two turning radii wide) spans the leg's line instead of running out to one side of it "
+             "(companion/guidance/sidestep.py). 0: turn where the boat is."),
     ParamDef("USV_WP_JOIN", 70.0, 0.0, 90.0, "deg",
              "AUTO entered while the boat orbits a hold point (RTL, LOITER or GUIDED in a current weaker "
              "than USV_HOLD_CREEP): keep orbiting until the course is within this of the first leg "

@@ -22,8 +22,10 @@ from companion.control.target import ControlRequest, ControlTarget
 from companion.guidance.circle import CircleTracker
 from companion.guidance.current import CurrentObserver, crab_heading, water_speed_mps
 from companion.guidance.geo import LocalFrame, distance_bearing, wrap_2pi, wrap_pi
+from companion.guidance.hold_params import current_station_gains
 from companion.guidance.los import LosFollower, LosType
 from companion.guidance.params import circle_gains, leg_config, los_gains, station_gains
+from companion.guidance.sidestep import SIDESTEP_MAX_SOG_MPS, SideStep
 from companion.guidance.station import StationKeeper
 from companion.guidance.waypoints import (
     PIVOT_DONE_RAD,
@@ -121,6 +123,10 @@ class GotoTask:
         self.distance_m = math.inf
         self.cross_track_m = 0.0
         self._u_turn = UTurnLatch()
+        self._first_step = True
+        self.sidestep: SideStep | None = None
+        """Set while the boat moves sideways before a U-turn from station keeping
+        (:meth:`_plan_sidestep`)."""
         self.pivoting = False
         """A U-turn onto the leg is under way (from a heading error beyond
         :data:`~companion.guidance.waypoints.U_TURN_RAD` until it is below
@@ -150,8 +156,43 @@ class GotoTask:
             return target
         return replace(target, course_rad=heading, is_heading=True, course_rate_radps=0.0)
 
+    def _plan_sidestep(self, nav: NavState, pos_ne: tuple[float, float]) -> SideStep | None:
+        """The side step before a U-turn onto the leg (``USV_WP_UTURN_OFS``,
+        :mod:`companion.guidance.sidestep`): the boat keeps station (slower than
+        :data:`~companion.guidance.sidestep.SIDESTEP_MAX_SOG_MPS` over ground) bow into a current
+        stronger than ``USV_HOLD_CREEP``, more than :data:`U_TURN_RAD` off the leg.  The U-turn's
+        direction is latched here, so the turn goes the way the side step prepared for."""
+        offset_m = self.params.get_or("USV_WP_UTURN_OFS", 0.0)
+        if offset_m <= 0.0 or int(self.params.get_or("USV_WP_UTURN", 0.0)) != 1 or self.water_current is None:
+            return None
+        current = self.water_current()
+        if (current is None or math.hypot(*current) < self.params.get_or("USV_HOLD_CREEP", math.inf)
+                or nav.speed_over_ground_mps > SIDESTEP_MAX_SOG_MPS):
+            return None
+        end = self.nav.end
+        leg_rad = math.atan2(end[1] - pos_ne[1], end[0] - pos_ne[0])
+        err_rad = wrap_pi(leg_rad - nav.heading_rad)
+        if abs(err_rad) <= U_TURN_RAD:
+            return None
+        inside = self.nav.inside_sign
+        sign = u_turn_sign(nav.heading_rad, leg_rad, inside) if inside != 0.0 else math.copysign(1.0, err_rad)
+        self._u_turn.sign = sign
+        return SideStep.start(pos_ne, nav.heading_rad, sign, offset_m, current_station_gains(self.params))
+
     def step(self, nav: NavState, dt_s: float) -> ControlTarget:
         pos = self.frame.to_ne(nav.lat_deg, nav.lon_deg)
+        if self._first_step:
+            self._first_step = False
+            self.sidestep = self._plan_sidestep(nav, pos)
+        if self.sidestep is not None:
+            current = self.water_current() if self.water_current is not None else None
+            if current is not None:
+                target = self.sidestep.step(pos, current, dt_s)
+                if not self.sidestep.done:
+                    end = self.nav.end
+                    self.distance_m = math.hypot(end[0] - pos[0], end[1] - pos[1])
+                    return target
+            self.sidestep = None  # there (or the estimate is gone): the U-turn, the way prepared
         drift = self.drift if self.drift is not None and self.drift.converged else None
         plan_current = drift.current_ne_mps if drift is not None and int(
             self.params.get_or("USV_WP_DRIFT", 0.0)) == 1 else None

@@ -10,7 +10,8 @@ from hypothesis import example, given
 from hypothesis import strategies as st
 
 from companion.guidance.current import MAX_CRAB_SIN, CurrentObserver, crab_heading, water_speed_mps
-from companion.guidance.geo import LocalFrame
+from companion.guidance.geo import LocalFrame, wrap_pi
+from companion.guidance.sidestep import sidestep_point
 from companion.guidance.stem import stem_route
 from companion.guidance.waypoints import drift_lead_m, pivot_speed_mps, u_turn_sign
 from companion.messages import NavState
@@ -416,8 +417,10 @@ def test_u_turn_onto_a_leg_runs_slowly_through_the_water_until_the_bow_is_near_t
     current along the bow (never below 0), until the bow is within 45 deg of the leg; then the
     leg's own speed as before (WP_SPEED here: at rest the course over ground reads along the leg,
     so the corner-speed rule does not apply).  Commanding 2 m/s over ground with the
-    bow up a 1.2 m/s current asked 3.2 m/s through the water, and the turn spanned 5-7 m."""
+    bow up a 1.2 m/s current asked 3.2 m/s through the water, and the turn spanned 5-7 m.  (The
+    side step before it is off here: :func:`test_u_turn_from_station_keeping_first_steps_aside`.)"""
     params = ParamStore(all_param_defs())
+    params.set("USV_WP_UTURN_OFS", 0.0, persist=False)
     home = (41.77, 123.43)
     frame = LocalFrame(*home)
     current = None if current_n_mps is None else (current_n_mps, 0.0)
@@ -433,8 +436,10 @@ def test_u_turn_onto_a_leg_runs_slowly_through_the_water_until_the_bow_is_near_t
 
 def test_u_turn_onto_the_last_leg_runs_slowly_too() -> None:
     """GUIDED's and RTL's leg (no corner after it, so no inside to turn toward) pivots the same:
-    bow into 1.2 m/s with the point down the current, 0 over ground until within 45 deg."""
+    bow into 1.2 m/s with the point down the current, 0 over ground until within 45 deg (the side
+    step off)."""
     params = ParamStore(all_param_defs())
+    params.set("USV_WP_UTURN_OFS", 0.0, persist=False)
     home = (41.77, 123.43)
     frame = LocalFrame(*home)
     task = GotoTask(params, home, frame.to_lat_lon(100.0, 0.0), 5.0, water_current=lambda: (1.2, 0.0))
@@ -442,6 +447,58 @@ def test_u_turn_onto_the_last_leg_runs_slowly_too() -> None:
     assert task.step(_heading_nav(frame, 60.0), 0.1).speed_mps == pytest.approx(1.6)  # 1 + 1.2 cos 60
     assert task.pivoting
     assert task.step(_heading_nav(frame, 40.0), 0.1).speed_mps == pytest.approx(5.0)
+
+
+def _nav_at(frame: LocalFrame, north_m: float, east_m: float, heading_deg: float) -> NavState:
+    """A boat at rest ``north_m``/``east_m`` from the frame's origin, bow on ``heading_deg``."""
+    lat, lon = frame.to_lat_lon(north_m, east_m)
+    return NavState(t_s=0.0, lat_deg=lat, lon_deg=lon, alt_m=0.0, heading_rad=math.radians(heading_deg),
+                    roll_rad=0.0, pitch_rad=0.0, vel_north_mps=0.0, vel_east_mps=0.0, u_mps=0.0,
+                    v_mps=0.0, r_radps=0.0)
+
+
+def test_side_step_point_lies_away_from_the_turning_circle() -> None:
+    # bow south, turning to port (-1, via east): the turning circle lies east, so step west
+    assert sidestep_point((0.0, 0.0), math.pi, -1.0, 2.0) == pytest.approx((0.0, -2.0), abs=1e-9)
+    # bow east, turning to starboard (+1, via south): the circle lies south, so step north
+    assert sidestep_point((1.0, 1.0), 0.5 * math.pi, 1.0, 1.5) == pytest.approx((2.5, 1.0), abs=1e-9)
+
+
+def test_u_turn_from_station_keeping_first_steps_aside() -> None:
+    """At rest bow into a 1.2 m/s current (south) with the route's first leg down it (north, then a
+    corner to the east, the inside): the task first keeps station 2 m west (USV_WP_UTURN_OFS),
+    bow still into the current; once the boat has moved there it pivots, to port (via east) as
+    prepared, at the U-turn's speed."""
+    params = ParamStore(all_param_defs())
+    home = (41.77, 123.43)
+    frame = LocalFrame(*home)
+    task = GotoTask(params, home, frame.to_lat_lon(50.0, 0.0), 5.0, next_point=frame.to_lat_lon(50.0, 50.0),
+                    water_current=lambda: (1.2, 0.0))
+    first = task.step(_nav_at(frame, 0.0, 0.0, 180.0), 0.1)
+    assert task.sidestep is not None and first.hold_station and first.is_heading
+    assert task.sidestep.point_ne == pytest.approx((0.0, -2.0), abs=1e-6)
+    assert math.cos(first.course_rad) < -0.9  # bow still into the current
+    assert task.step(_nav_at(frame, 0.5, -1.0, 180.0), 0.1).hold_station  # not there yet
+    assert task.sidestep is not None
+    turn = task.step(_nav_at(frame, 0.8, -1.8, 180.0), 0.1)  # within 0.3 m of the offset sideways
+    assert task.sidestep is None and task.pivoting and not turn.hold_station
+    assert turn.speed_mps == pytest.approx(0.0)  # 1 m/s through the water, bow into 1.2 m/s
+    assert math.degrees(wrap_pi(turn.course_rad - math.pi)) < -90.0  # to port, via east
+
+
+@pytest.mark.parametrize(("current_ne", "heading_deg"), [
+    ((0.5, 0.0), 180.0),   # weaker than the idle creep: the boat cannot stand still to step aside
+    ((1.2, 0.0), 0.0),     # the bow already along the leg: no U-turn
+    (None, 180.0),         # no estimate
+])
+def test_no_side_step_without_station_to_step_from(current_ne: tuple[float, float] | None,
+                                                   heading_deg: float) -> None:
+    params = ParamStore(all_param_defs())
+    home = (41.77, 123.43)
+    frame = LocalFrame(*home)
+    task = GotoTask(params, home, frame.to_lat_lon(50.0, 0.0), 5.0, water_current=lambda: current_ne)
+    assert not task.step(_nav_at(frame, 0.0, 0.0, heading_deg), 0.1).hold_station
+    assert task.sidestep is None
 
 
 def test_corner_starts_earlier_when_the_current_sets_the_boat_past_the_new_leg() -> None:
