@@ -21,6 +21,7 @@ import math
 from dataclasses import dataclass
 
 from companion.control.target import ControlTarget
+from companion.guidance.geo import wrap_pi
 from companion.guidance.holding import CurrentStationGains, CurrentStationKeeper
 
 Point = tuple[float, float]
@@ -29,6 +30,11 @@ SIDESTEP_DONE_M = 0.3
 """The side step is done when the boat has moved to within this of the offset sideways (how far
 the current carries it along the leg meanwhile does not matter: the leg runs down the current) ...
 """
+SIDESTEP_BOW_RAD = math.radians(15.0)
+"""... and, there, the bow is back within this of upstream (the keeper angles it to ferry the boat
+aside, away from the turn: a turn started from there is that much longer, and in 1.2 m/s with
+6 m/s of wind from astern the slow pivot never got round: the wind turned the boat the other way
+and the leg ran off 90 m up the wind) ..."""
 SIDESTEP_MAX_S = 15.0
 """... or after this long (a keeper that cannot reach it: the turn starts from where it is)."""
 SIDESTEP_MAX_SOG_MPS = 0.5
@@ -76,10 +82,17 @@ class SideStep:
         """How far the boat has moved sideways, the way the side step goes."""
         return (pos_ne[0] - self.start_ne[0]) * self.away[0] + (pos_ne[1] - self.start_ne[1]) * self.away[1]
 
-    def step(self, pos_ne: Point, current_ne_mps: tuple[float, float], dt_s: float) -> ControlTarget:
-        """The station keeper's target; sets :attr:`done` once the boat is within
-        :data:`SIDESTEP_DONE_M` of the offset sideways or after :data:`SIDESTEP_MAX_S`."""
+    def step(self, pos_ne: Point, heading_rad: float, current_ne_mps: tuple[float, float],
+             dt_s: float) -> ControlTarget:
+        """The station keeper's target; once the boat is within :data:`SIDESTEP_DONE_M` of the
+        offset sideways, the bow straightened up the current.  Sets :attr:`done` when the boat is
+        aside with its bow within :data:`SIDESTEP_BOW_RAD` of upstream, or after
+        :data:`SIDESTEP_MAX_S`."""
         self.elapsed_s += dt_s
         out = self.keeper.update(pos_ne, current_ne_mps, dt_s)
-        self.done = self.moved_m(pos_ne) > self.offset_m - SIDESTEP_DONE_M or self.elapsed_s > SIDESTEP_MAX_S
-        return ControlTarget(out.heading_rad, out.surge_speed_mps, is_heading=True, hold_station=True)
+        heading = out.heading_rad
+        if self.moved_m(pos_ne) > self.offset_m - SIDESTEP_DONE_M:
+            heading = math.atan2(-current_ne_mps[1], -current_ne_mps[0])
+            self.done = abs(wrap_pi(heading_rad - heading)) < SIDESTEP_BOW_RAD
+        self.done = self.done or self.elapsed_s > SIDESTEP_MAX_S
+        return ControlTarget(heading, out.surge_speed_mps, is_heading=True, hold_station=True)

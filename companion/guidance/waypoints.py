@@ -88,6 +88,13 @@ U_TURN_DONE_RAD = math.radians(90.0)
 """The chosen direction is kept until the heading error is below this."""
 
 
+U_TURN_PROGRESS_RAD = math.radians(20.0)
+U_TURN_STALL_S = 10.0
+"""A latched U-turn that has not closed the heading error by U_TURN_PROGRESS_RAD for U_TURN_STALL_S
+turns the other way: the slow pivot (:func:`pivot_speed_mps`) can lack the thrust to turn against
+6 m/s of wind from astern, which turned the boat the other way while the latch held, and the leg
+ran off 90 m up the wind (in-process, 1.2 m/s with the wind against the current)."""
+
 PIVOT_DONE_RAD = math.radians(45.0)
 """A U-turn onto a leg runs slowly (:func:`pivot_speed_mps`) until the heading error is below this."""
 
@@ -114,18 +121,37 @@ class UTurnLatch:
     def __init__(self) -> None:
         self.sign = 0.0
         """+1 (clockwise) / -1 while a U-turn is latched, 0 otherwise."""
+        self._closest_rad = math.inf
+        self._closest_t_s = 0.0
 
-    def heading(self, err_rad: float, heading_rad: float, pick_sign: Callable[[], float]) -> float | None:
+    def heading(self, err_rad: float, heading_rad: float, pick_sign: Callable[[], float],
+                t_s: float | None = None) -> float | None:
         """For the heading error ``err_rad`` of a boat on ``heading_rad``: the heading to command
         instead of the target's (the latched way round), or ``None`` to follow the target.
-        ``pick_sign`` is called when a U-turn starts (0: none is latched)."""
+        ``pick_sign`` is called when a U-turn starts (0: none is latched).  With the time ``t_s``,
+        a latched turn that has not brought the error :data:`U_TURN_PROGRESS_RAD` lower for
+        :data:`U_TURN_STALL_S` goes the other way (:meth:`_stalled`)."""
         if self.sign == 0.0 and abs(err_rad) > U_TURN_RAD:
             self.sign = pick_sign()
+            self._closest_rad, self._closest_t_s = abs(err_rad), (t_s or 0.0)
         elif abs(err_rad) < U_TURN_DONE_RAD:
             self.sign = 0.0
+        if self.sign != 0.0 and t_s is not None and self._stalled(abs(err_rad), t_s):
+            self.sign = -self.sign
         if self.sign == 0.0 or math.copysign(1.0, err_rad) == self.sign:
             return None
         return wrap_2pi(heading_rad + self.sign * U_TURN_RAD)
+
+    def _stalled(self, abs_err_rad: float, t_s: float) -> bool:
+        """The latched turn has not closed the heading error by :data:`U_TURN_PROGRESS_RAD` for
+        :data:`U_TURN_STALL_S` (restarts the count when it returns True)."""
+        if abs_err_rad < self._closest_rad - U_TURN_PROGRESS_RAD or t_s < self._closest_t_s:
+            self._closest_rad, self._closest_t_s = abs_err_rad, t_s
+            return False
+        if t_s - self._closest_t_s > U_TURN_STALL_S:
+            self._closest_rad, self._closest_t_s = abs_err_rad, t_s
+            return True
+        return False
 
 
 def u_turn_sign(heading_rad: float, leg_rad: float, inside_sign: float) -> float:

@@ -142,7 +142,7 @@ class GotoTask:
         err_rad = wrap_pi(target.course_rad - nav.heading_rad)
         heading = self._u_turn.heading(
             err_rad, nav.heading_rad,
-            lambda: u_turn_sign(nav.heading_rad, leg_rad, inside) if inside != 0.0 else 0.0)
+            lambda: u_turn_sign(nav.heading_rad, leg_rad, inside) if inside != 0.0 else 0.0, nav.t_s)
         if abs(err_rad) > U_TURN_RAD:
             self.pivoting = True
         elif abs(err_rad) < PIVOT_DONE_RAD:
@@ -187,7 +187,7 @@ class GotoTask:
         if self.sidestep is not None:
             current = self.water_current() if self.water_current is not None else None
             if current is not None:
-                target = self.sidestep.step(pos, current, dt_s)
+                target = self.sidestep.step(pos, nav.heading_rad, current, dt_s)
                 if not self.sidestep.done:
                     end = self.nav.end
                     self.distance_m = math.hypot(end[0] - pos[0], end[1] - pos[1])

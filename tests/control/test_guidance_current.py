@@ -13,7 +13,7 @@ from companion.guidance.current import MAX_CRAB_SIN, CurrentObserver, crab_headi
 from companion.guidance.geo import LocalFrame, wrap_pi
 from companion.guidance.sidestep import sidestep_point
 from companion.guidance.stem import stem_route
-from companion.guidance.waypoints import drift_lead_m, pivot_speed_mps, u_turn_sign
+from companion.guidance.waypoints import UTurnLatch, drift_lead_m, pivot_speed_mps, u_turn_sign
 from companion.messages import NavState
 from companion.modes.navigation import CircleTask, GotoTask
 from companion.param_table import all_param_defs
@@ -480,10 +480,29 @@ def test_u_turn_from_station_keeping_first_steps_aside() -> None:
     assert math.cos(first.course_rad) < -0.9  # bow still into the current
     assert task.step(_nav_at(frame, 0.5, -1.0, 180.0), 0.1).hold_station  # not there yet
     assert task.sidestep is not None
-    turn = task.step(_nav_at(frame, 0.8, -1.8, 180.0), 0.1)  # within 0.3 m of the offset sideways
+    straighten = task.step(_nav_at(frame, 0.8, -1.8, 140.0), 0.1)  # aside, bow 40 deg off upstream
+    assert task.sidestep is not None and straighten.hold_station
+    assert math.cos(straighten.course_rad) == pytest.approx(-1.0, abs=1e-9)  # the bow up the current first
+    turn = task.step(_nav_at(frame, 0.8, -1.8, 180.0), 0.1)  # aside, bow up the current
     assert task.sidestep is None and task.pivoting and not turn.hold_station
     assert turn.speed_mps == pytest.approx(0.0)  # 1 m/s through the water, bow into 1.2 m/s
     assert math.degrees(wrap_pi(turn.course_rad - math.pi)) < -90.0  # to port, via east
+
+
+def test_a_u_turn_that_makes_no_headway_turns_the_other_way() -> None:
+    """A latched U-turn whose heading error has not closed by 20 deg for 10 s goes the other way
+    (wind from astern can hold the slow pivot); one that turns keeps its way."""
+    latch = UTurnLatch()
+    assert latch.heading(math.radians(150.0), 0.0, lambda: -1.0, 0.0) is not None
+    for t in range(1, 11):
+        latch.heading(math.radians(150.0 - t), 0.0, lambda: -1.0, float(t))
+    assert latch.sign == -1.0  # 10 s, 10 deg: not yet
+    latch.heading(math.radians(139.0), 0.0, lambda: -1.0, 10.5)
+    assert latch.sign == 1.0
+    turning = UTurnLatch()
+    for t in range(0, 30):
+        turning.heading(math.radians(179.0 - 3.0 * t), 0.0, lambda: -1.0, float(t))
+    assert turning.sign in (-1.0, 0.0)  # kept its way until done (below 90 deg: released)
 
 
 @pytest.mark.parametrize(("current_ne", "heading_deg"), [
