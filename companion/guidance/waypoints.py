@@ -142,6 +142,12 @@ class UTurnLatch:
             return None
         return wrap_2pi(heading_rad + self.sign * U_TURN_RAD)
 
+    def latch(self, sign: float) -> None:
+        """Latch a U-turn the way ``sign`` says (+1 starboard) before it starts (the side step,
+        :mod:`companion.guidance.sidestep`, prepares the turn for one way)."""
+        self.sign = sign
+        self._closest_rad, self._closest_t_s = math.inf, 0.0
+
     def _stalled(self, abs_err_rad: float, t_s: float) -> bool:
         """The latched turn has not closed the heading error by :data:`U_TURN_PROGRESS_RAD` for
         :data:`U_TURN_STALL_S` (restarts the count when it returns True)."""

@@ -176,7 +176,7 @@ class GotoTask:
             return None
         inside = self.nav.inside_sign
         sign = u_turn_sign(nav.heading_rad, leg_rad, inside) if inside != 0.0 else math.copysign(1.0, err_rad)
-        self._u_turn.sign = sign
+        self._u_turn.latch(sign)
         return SideStep.start(pos_ne, nav.heading_rad, sign, offset_m, current_station_gains(self.params))
 
     def step(self, nav: NavState, dt_s: float) -> ControlTarget:
