@@ -21,3 +21,8 @@ def current_along_mps(heading_rad: float, current_ne_mps: tuple[float, float] | 
     if current_ne_mps is None:
         return 0.0
     return current_ne_mps[0] * math.cos(heading_rad) + current_ne_mps[1] * math.sin(heading_rad)
+
+
+def upstream_rad(current_ne_mps: tuple[float, float]) -> float:
+    """The heading straight into the current ``(north, east)`` m/s (bow upstream)."""
+    return math.atan2(-current_ne_mps[1], -current_ne_mps[0])

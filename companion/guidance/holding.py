@@ -41,6 +41,7 @@ import enum
 import math
 from dataclasses import dataclass
 
+from companion.angles import upstream_rad
 from companion.guidance.geo import distance_bearing, wrap_2pi, wrap_pi
 
 MAX_CRAB_SIN = 0.8
@@ -131,7 +132,7 @@ class CurrentStationKeeper:
         if math.hypot(wn, we) >= g.min_speed_mps:
             heading = math.atan2(we, wn)
             if math.hypot(*current_ne_mps) > 0.0:
-                upstream = math.atan2(-current_ne_mps[1], -current_ne_mps[0])
+                upstream = upstream_rad(current_ne_mps)
                 off = wrap_pi(heading - upstream)
                 clamped = abs(off) > g.max_off_upstream_rad
                 if clamped and abs(off) > math.pi - DOWNSTREAM_SIDE_RAD:

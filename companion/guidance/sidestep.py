@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from companion.angles import upstream_rad
 from companion.control.target import ControlTarget
 from companion.guidance.geo import wrap_pi
 from companion.guidance.holding import CurrentStationGains, CurrentStationKeeper
@@ -92,7 +93,7 @@ class SideStep:
         out = self.keeper.update(pos_ne, current_ne_mps, dt_s)
         heading = out.heading_rad
         if self.moved_m(pos_ne) > self.offset_m - SIDESTEP_DONE_M:
-            heading = math.atan2(-current_ne_mps[1], -current_ne_mps[0])
+            heading = upstream_rad(current_ne_mps)
             self.done = abs(wrap_pi(heading_rad - heading)) < SIDESTEP_BOW_RAD
         self.done = self.done or self.elapsed_s > SIDESTEP_MAX_S
         return ControlTarget(heading, out.surge_speed_mps, is_heading=True, hold_station=True)

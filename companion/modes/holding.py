@@ -21,7 +21,7 @@ import math
 from collections.abc import Callable
 from dataclasses import replace
 
-from companion.angles import current_along_mps
+from companion.angles import current_along_mps, upstream_rad
 from companion.control.target import ControlTarget
 from companion.guidance.bow_turn import KeeperTurn, along_across_m, downstream_speed_mps
 from companion.guidance.geo import LocalFrame, wrap_2pi
@@ -181,7 +181,7 @@ def hold_task(host: ModeHost, point: tuple[float, float], nav: NavState,
     trial = (try_station and kind == HoldStrategy.ORBIT and abs(nav.r_radps) < TRIAL_MAX_TURN_RADPS
              and tries_station(host, est))
     if kind == HoldStrategy.STATION or trial:
-        upstream = math.atan2(-est.east_mps, -est.north_mps)
+        upstream = upstream_rad((est.north_mps, est.east_mps))
         heading = nav.heading_rad if math.cos(nav.heading_rad - upstream) > 0.0 else upstream
         return CurrentStationTask(host.params, point, heading, _current_source(host), current,
                                   trial=trial, started_s=nav.t_s)

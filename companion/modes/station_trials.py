@@ -9,6 +9,8 @@ STATION_MEMORY_S = 600.0
 """How long a failed station keeping is remembered (:class:`StationTrials`)."""
 SAME_CURRENT_MPS = 0.15
 """Estimates within this (vector difference) count as the same current."""
+MAX_REMEMBERED = 8
+"""At most this many failures are kept (the newest)."""
 
 
 class StationTrials:
@@ -24,7 +26,7 @@ class StationTrials:
 
     def failed(self, current_ne_mps: tuple[float, float], t_s: float) -> None:
         """Station keeping in ``current_ne_mps`` was given up at ``t_s``."""
-        self._failures = [f for f in self._failures if t_s - f[0] <= self.memory_s][-7:]
+        self._failures = [f for f in self._failures if t_s - f[0] <= self.memory_s][-(MAX_REMEMBERED - 1):]
         self._failures.append((t_s, current_ne_mps))
 
     def ruled_out(self, current_ne_mps: tuple[float, float], t_s: float) -> bool:
