@@ -119,7 +119,9 @@ def distance_to_segment_m(p_ne: tuple[float, float], a_ne: tuple[float, float],
                           b_ne: tuple[float, float]) -> float:
     """Distance (m) from the point ``p_ne`` to the segment ``a_ne -> b_ne`` (north-east metres)."""
     dn, de = b_ne[0] - a_ne[0], b_ne[1] - a_ne[1]
-    t = max(0.0, min(1.0, ((p_ne[0] - a_ne[0]) * dn + (p_ne[1] - a_ne[1]) * de) / (dn * dn + de * de)))
+    length2 = dn * dn + de * de
+    along = (p_ne[0] - a_ne[0]) * dn + (p_ne[1] - a_ne[1]) * de
+    t = 0.0 if length2 == 0.0 else max(0.0, min(1.0, along / length2))  # a point: its distance
     return math.hypot(p_ne[0] - a_ne[0] - t * dn, p_ne[1] - a_ne[1] - t * de)
 
 

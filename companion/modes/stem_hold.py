@@ -1,6 +1,7 @@
 """Holding on the circle of a circle item in a current it cannot circle in (:class:`StemHold`,
-the geometry of :mod:`companion.guidance.stem`): legs to the abeam point, then the current-fed
-station keeper (:class:`~companion.guidance.holding.CurrentStationKeeper`) onto the hold point."""
+the geometry of :mod:`companion.guidance.stem`): legs to the abeam point (below the idle creep: to
+a point straight downstream of the hold point, :data:`CREEP_BELOW_M`), then the current-fed station
+keeper (:class:`~companion.guidance.holding.CurrentStationKeeper`) onto the hold point."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ from dataclasses import replace
 from companion.angles import current_along_mps
 from companion.control.target import ControlTarget
 from companion.guidance.bow_turn import KeeperTurn, along_across_m, downstream_speed_mps
-from companion.guidance.geo import wrap_pi
+from companion.guidance.geo import distance_to_segment_m, wrap_pi
 from companion.guidance.hold_params import current_station_gains
 from companion.guidance.holding import CurrentStationKeeper
 from companion.guidance.los import LosFollower, LosType
@@ -47,15 +48,19 @@ stalled off its point, and the bottle would never fill (``docs/tuning.md``)."""
 
 
 CREEP_ABEAM_M = 8.0
-"""Below the idle creep the boat turns into the current this far outside the circle (at 5 m it
-came in at speed and ran through the hold point and the circle)."""
+"""Below the idle creep the abeam point is this far outside the circle (at 5 m the boat came in at
+speed and ran through the hold point and the circle)."""
+CREEP_BELOW_M = 8.0
+CREEP_CLEAR_M = 1.0
+"""Below the idle creep the legs end CREEP_BELOW_M straight downstream of the hold point (via the
+abeam point when the way there would pass within CREEP_CLEAR_M of the circle), and the station
+keeper brings the boat up the current onto the hold point, bow into it: the current brakes the
+boat.  Handed over at the abeam point, across the current, a boat coming from across with the wind
+astern coasted on at 1.5-2 m/s at idle while the bow came round, through the hold point and the
+circle (the flood's first point, tuning seeds: 6-7 m; ``docs/tuning.md``)."""
 CREEP_HOLD_DOWNSTREAM_RAD = math.radians(30.0)
 """Below the idle creep the hold point is this far round the circle downstream of the line
 across the current (the creep upstream then runs along a chord of the circle)."""
-CREEP_HANDOVER_M = 5.0
-"""Below the idle creep a boat coming from farther downstream than this hands over from the leg to
-the keeper this far from the abeam point (arriving there heading upstream at the leg speed it ran
-on 5-7 m upstream and came back across the hold point diagonally)."""
 CREEP_KEEPER_KI_PER_S2 = 0.0
 """Below the idle creep the keeper runs without its integral (``CurrentStationGains.ki_per_s2``):
 the boat cannot stand still, so there is no steady error for it to learn, and it wound up on the
@@ -106,10 +111,13 @@ class StemHold:
         *self.route, self.hold_ne = stem_route(
             (0.0, 0.0), radius_m, current_ne_mps, ahead_ne,
             *((CREEP_ABEAM_M, CREEP_HOLD_DOWNSTREAM_RAD) if self.below_creep else ()))
-        abeam = self.route[0]
-        from_downstream = along_across_m(pos_ne, abeam, current_ne_mps)[0] > CREEP_HANDOVER_M
-        accept_m = CREEP_HANDOVER_M if self.below_creep and from_downstream else 1.0
-        cfg = leg_config(params, params.get("USV_CIRC_SPD") + math.hypot(*current_ne_mps), accept_m)
+        if self.below_creep:  # via the abeam point only if need be, to below the hold point
+            c = math.hypot(*current_ne_mps)
+            below = (self.hold_ne[0] + CREEP_BELOW_M * current_ne_mps[0] / c,
+                     self.hold_ne[1] + CREEP_BELOW_M * current_ne_mps[1] / c)
+            crosses = distance_to_segment_m((0.0, 0.0), pos_ne, below) < radius_m + CREEP_CLEAR_M
+            self.route = [*self.route, below] if crosses else [below]
+        cfg = leg_config(params, params.get("USV_CIRC_SPD") + math.hypot(*current_ne_mps), 1.0)
         self.turn = KeeperTurn(None if self.below_creep else cfg.turn_speed_mps)
         """How the bow turns onto the keeper's heading: under power at the corner speed, not below
         the idle creep (:class:`~companion.guidance.bow_turn.KeeperTurn`)."""

@@ -14,6 +14,7 @@ from companion.guidance.geo import (
     LocalFrame,
     distance_bearing,
     distance_m,
+    distance_to_segment_m,
     lat_lon_problem,
     valid_lat_lon,
     wrap_pi,
@@ -119,6 +120,12 @@ def test_integral_state_does_not_wind_up_before_the_leg_starts(los_type: LosType
     assert los.y_int_m == 0.0 and los.beta_hat_rad == 0.0
     los.update((1.0, 4.0), 2.0, 0.01)  # on the leg: integrates again
     assert los.y_int_m != 0.0 or los.beta_hat_rad != 0.0
+
+
+def test_distance_to_a_segment_including_one_of_zero_length() -> None:
+    assert distance_to_segment_m((3.0, 4.0), (0.0, 0.0), (10.0, 0.0)) == pytest.approx(4.0)
+    assert distance_to_segment_m((-3.0, 4.0), (0.0, 0.0), (10.0, 0.0)) == pytest.approx(5.0)
+    assert distance_to_segment_m((3.0, 4.0), (1.0, 1.0), (1.0, 1.0)) == pytest.approx(math.hypot(2.0, 3.0))
 
 
 def test_turn_anticipation_is_sized_for_the_speed_the_boat_actually_has() -> None:

@@ -313,6 +313,31 @@ def test_circle_item_below_the_idle_creep_holds_only_when_enabled_and_circles_wh
     assert far.stem is not None and far.stem is not first and not far.circling  # flown once more
 
 
+def test_hold_below_the_creep_is_reached_from_downstream_bow_into_the_current() -> None:
+    """Below the idle creep the legs end 8 m straight downstream of the hold point and the station
+    keeper brings the boat up the current onto it (handed over across the current, a boat running
+    with the wind coasted through the hold point and the circle); a boat upstream of the circle
+    goes round it by the abeam point first."""
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    across = CircleTask(_creep_params(0.4), point, 2.0, water_current=lambda: (0.0, 0.5))
+    across.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)  # south of the circle, current toward east
+    stem = across.stem
+    assert stem is not None and stem.below_creep
+    assert stem.route == [pytest.approx((stem.hold_ne[0], stem.hold_ne[1] + 8.0))]
+    upstream = CircleTask(_creep_params(0.4), point, 2.0, water_current=lambda: (0.0, 0.5))
+    upstream.step(_nav(frame, -1.0, -14.0, 0.0, 2.0), 0.1)  # west of the circle, heading for it
+    stem = upstream.stem
+    assert stem is not None and len(stem.route) == 2
+    abeam, below = stem.route
+    assert abeam[1] == pytest.approx(0.0, abs=1e-9) and abs(abeam[0]) == pytest.approx(10.0)
+    assert below == pytest.approx((stem.hold_ne[0], stem.hold_ne[1] + 8.0))
+    upstream.step(_nav(frame, *abeam, 1.0, 1.0), 0.1)  # at the abeam point: on to below the hold
+    assert not stem.holding
+    target = upstream.step(_nav(frame, *below, 0.0, -0.3), 0.1)  # there: the keeper, bow upstream
+    assert stem.holding and abs(wrap_pi(target.course_rad - math.radians(270.0))) < math.radians(45.0)
+
+
 def test_hold_below_the_creep_does_not_wind_up_on_the_ferry_to_its_point() -> None:
     """Below the idle creep the keeper has no integral: 4 m off its point for 10 s (the ferry from
     the abeam point) it asks the same heading as at the start; above the creep the integral still
