@@ -43,7 +43,12 @@ every heading wobble into thrust (nozzle from stop to stop, throttle 0.8-1.0) an
 5-6 m/s on a 2.2 m/s leg.  So a commanded speed through the water (with the estimator's current,
 ``current``) below ``turn_boost_speed_mps`` gets the near-standstill nozzle floor and turn-scaled
 thrust too, but not the throttle cap, which is for a boat that is slow over ground (a corner taken
-down a current still gets the thrust that turns it).
+down a current still gets the thrust that turns it).  So does a boat slowing down to stop at the
+end of its route (``ControlTarget.stopping``: GUIDED's and RTL's legs, AUTO's last waypoint) while
+it is still more than the speed law's brake deadband faster than asked: with the surge demand near
+zero every wave's yaw put the nozzle at its stop and the yaw priority held the throttle at 0.5-0.9,
+so the boat reached its point at 2.5 m/s.  Slowing down for a corner keeps the full priority: the
+turn that follows needs it.
 
 The qLPV model is evaluated on over-ground velocities, and near standstill in a current those
 are mostly drift (the hull's sway and yaw terms then change with every heading change faster
@@ -237,7 +242,9 @@ class ActiveModelController:
         w_sin = (r_dot_d - f[2] - self.dnu_r) / self._b_r
         w_cos = self.speed_law.thrust_demand(nav, target.speed_mps, self.dnu_u_raw, dt_s, float(f[0]))
         slow_over_ground = target.speed_mps < c.turn_boost_speed_mps
-        if slow_over_ground or self._commanded_water_speed_mps(nav, target) < c.turn_boost_speed_mps:
+        stopping = target.stopping and nav.u_mps > target.speed_mps + c.speed.brake_deadband_mps
+        if (slow_over_ground or stopping
+                or self._commanded_water_speed_mps(nav, target) < c.turn_boost_speed_mps):
             delta, thrust = self._allocate_near_standstill(w_sin, w_cos, nav, target, e_psi, r_d,
                                                            capped=slow_over_ground)
         else:

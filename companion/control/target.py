@@ -41,6 +41,11 @@ class ControlTarget:
     water to stand still), so its integrator does not have to find the holding throttle again
     after every mode change (it is reset on entry).  A U-turn onto a leg gives the component along
     the bow as it turns (:func:`companion.guidance.waypoints.pivot_speed_mps`)."""
+    stopping: bool = False
+    """The speed is slowing the boat down to stop at a point (the last leg of a route: GUIDED's and
+    RTL's, AUTO's last waypoint), not for a corner: while the boat is still faster than asked, the
+    active model gives a heading wobble only the turn-scaled thrust of a slow boat
+    (:mod:`companion.control.active_model`)."""
 
 
 @dataclass(frozen=True, slots=True)

@@ -243,4 +243,5 @@ class LegNavigator:
         if self.next_point is not None:
             lead = self._corner(speed_mps, current_ne_mps)[1]  # switch for the speed the boat has
         reached = remaining <= lead or dist_end <= c.accept_radius_m
-        return LegStep(ControlTarget(out.course_rad, speed, out.course_rate_radps), err, reached)
+        return LegStep(ControlTarget(out.course_rad, speed, out.course_rate_radps,
+                                     stopping=self.next_point is None), err, reached)

@@ -137,6 +137,27 @@ def test_a_heading_wobble_down_a_current_does_not_rev_the_jet_but_a_turn_keeps_i
     assert slow_turn.throttle < u_turn                           # slow over ground: capped
 
 
+def test_a_heading_wobble_while_slowing_down_to_stop_does_not_rev_the_jet() -> None:
+    """Slowing down at the end of the last leg (GUIDED, RTL: ``ControlTarget.stopping``) from 3 m/s
+    to 2.2, a heading wobble that saturates the nozzle gets the turn-scaled thrust of a slow boat:
+    with the full yaw priority of a boat making way the wobbles held the throttle at 0.5-0.9 and the
+    boat reached its point at 2.5 m/s (usv bench nav).  Slowing down for a corner keeps that
+    priority (the turn), and so does a real turn while stopping."""
+    model = toy_model()
+    nav = nav_from(0.0, 0, 0, 0.0, np.array([3.0, 0.0, -0.2]))
+
+    def throttle(course_deg: float, stopping: bool) -> float:
+        ctl = ActiveModelController(model, ActiveModelConfig(), delta_nu=lambda: (0.0, 0.0, 0.0))
+        target = ControlTarget(course_rad=math.radians(course_deg), speed_mps=2.2, is_heading=True,
+                               stopping=stopping)
+        return ctl.update(nav, target, 0.01, NO_SATURATION).throttle
+
+    for_a_corner = throttle(3.0, stopping=False)
+    assert for_a_corner > 0.75
+    assert throttle(3.0, stopping=True) < for_a_corner - 0.2
+    assert throttle(150.0, stopping=True) == pytest.approx(throttle(150.0, stopping=False))
+
+
 def test_active_model_keeps_steering_thrust_when_asked_to_turn_hard_and_slow_down() -> None:
     """A water jet does not turn without thrust: at the nozzle limit the yaw request wins, so a
     hard turn entered too fast still gets the yaw acceleration it asks for (the boat used to cut

@@ -144,6 +144,15 @@ def test_turn_anticipation_is_sized_for_the_speed_the_boat_actually_has() -> Non
     assert reached_at(5.5, 3.5) and reached_at(6.5, 3.5) and not reached_at(7.5, 3.5)
 
 
+def test_only_the_last_leg_of_a_route_slows_the_boat_down_to_stop() -> None:
+    def stopping(next_point: tuple[float, float] | None) -> bool:
+        nav = LegNavigator(LosFollower(LosGains()), LegConfig(speed_mps=5.0, turn_speed_mps=2.0))
+        nav.set_leg((0.0, 0.0), (50.0, 0.0), next_point)
+        return nav.update((40.0, 0.0), 4.0, 0.01).target.stopping
+
+    assert stopping(None) and not stopping((50.0, 50.0))
+
+
 def _run_circle(tracker: CircleTracker, start_ne: tuple[float, float], current_ne: tuple[float, float],
                 speed_mps: float, duration_s: float) -> list[float]:
     x, y = start_ne
