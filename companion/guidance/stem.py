@@ -29,12 +29,15 @@ creep runs along a chord of the circle instead of off it::
 
 creeping ``s`` upstream from it the distance from the centre is ``sqrt((R sin a - s)^2 + R^2 cos^2 a)``:
 with ``a`` = 30 deg and R = 2 m it stays within 0.3 m of R for the first 2 m (10 s at 0.2 m/s,
-longer than a sample's pumping).
+longer than a sample's pumping).  The boat is brought there from straight downstream of the hold
+point (:func:`below_route`): bow into the current, the current brakes it.
 """
 
 from __future__ import annotations
 
 import math
+
+from companion.guidance.geo import distance_to_segment_m
 
 Point = tuple[float, float]
 
@@ -58,3 +61,16 @@ def stem_route(centre_ne: Point, radius_m: float, current_ne_mps: tuple[float, f
     hold = (centre_ne[0] + radius_m * (ca * pn + sa * cn), centre_ne[1] + radius_m * (ca * pe + sa * ce))
     abeam = (centre_ne[0] + (radius_m + abeam_m) * pn, centre_ne[1] + (radius_m + abeam_m) * pe)
     return [abeam, hold]
+
+
+def below_route(centre_ne: Point, radius_m: float, current_ne_mps: tuple[float, float], pos_ne: Point,
+                abeam_ne: Point, hold_ne: Point, below_m: float, clear_m: float) -> list[Point]:
+    """[below] or [abeam, below]: the point ``below_m`` straight downstream of ``hold_ne``, by the
+    abeam point when the straight way there from ``pos_ne`` passes within ``clear_m`` of the circle."""
+    speed = math.hypot(*current_ne_mps)
+    if speed <= 0.0:
+        raise ValueError("below_route needs a current")
+    cn, ce = current_ne_mps[0] / speed, current_ne_mps[1] / speed
+    below = (hold_ne[0] + below_m * cn, hold_ne[1] + below_m * ce)
+    crosses = distance_to_segment_m(centre_ne, pos_ne, below) < radius_m + clear_m
+    return [abeam_ne, below] if crosses else [below]

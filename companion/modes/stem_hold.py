@@ -11,12 +11,12 @@ from dataclasses import replace
 from companion.angles import current_along_mps
 from companion.control.target import ControlTarget
 from companion.guidance.bow_turn import KeeperTurn, along_across_m, downstream_speed_mps
-from companion.guidance.geo import distance_to_segment_m, wrap_pi
+from companion.guidance.geo import wrap_pi
 from companion.guidance.hold_params import current_station_gains
 from companion.guidance.holding import CurrentStationKeeper
 from companion.guidance.los import LosFollower, LosType
 from companion.guidance.params import leg_config, los_gains
-from companion.guidance.stem import stem_route
+from companion.guidance.stem import below_route, stem_route
 from companion.guidance.waypoints import LegNavigator
 from companion.messages import NavState
 from companion.params import ParamStore
@@ -111,12 +111,9 @@ class StemHold:
         *self.route, self.hold_ne = stem_route(
             (0.0, 0.0), radius_m, current_ne_mps, ahead_ne,
             *((CREEP_ABEAM_M, CREEP_HOLD_DOWNSTREAM_RAD) if self.below_creep else ()))
-        if self.below_creep:  # via the abeam point only if need be, to below the hold point
-            c = math.hypot(*current_ne_mps)
-            below = (self.hold_ne[0] + CREEP_BELOW_M * current_ne_mps[0] / c,
-                     self.hold_ne[1] + CREEP_BELOW_M * current_ne_mps[1] / c)
-            crosses = distance_to_segment_m((0.0, 0.0), pos_ne, below) < radius_m + CREEP_CLEAR_M
-            self.route = [*self.route, below] if crosses else [below]
+        if self.below_creep:
+            self.route = below_route((0.0, 0.0), radius_m, current_ne_mps, pos_ne, self.route[0],
+                                     self.hold_ne, CREEP_BELOW_M, CREEP_CLEAR_M)
         cfg = leg_config(params, params.get("USV_CIRC_SPD") + math.hypot(*current_ne_mps), 1.0)
         self.turn = KeeperTurn(None if self.below_creep else cfg.turn_speed_mps)
         """How the bow turns onto the keeper's heading: under power at the corner speed, not below

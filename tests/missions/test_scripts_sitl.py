@@ -62,8 +62,8 @@ def test_rescue_launches_within_tolerance_and_tows_home(flood_sitl: FloodSitl, g
     "hold on the circle below the idle creep, reached from downstream since a8aafe5) the same sequence "
     "gave 0.47/0.47/0.43/0.62 and 0.48/0.50/0.48/0.49 m, and the sampling script alone from rest after "
     "arming 1.12-2.03 m at its worst point (seeds 3, 21-23); not the default: with 6 m/s of wind against "
-    "a 0.5 m/s current that hold creeps off upstream (4-15 m on usv bench nav's tuning cells in-process, "
-    "circling 1.5-4.9 m)"))
+    "a 0.5 m/s current that hold creeps off upstream (worst point 6.8-15.2 m in-process on the four 0.5 m/s "
+    "cells of the tuning weather, circling 2.6-4.9 m)"))
 def test_water_sampling_fills_four_bottles_inside_the_circles(flood_sitl: FloodSitl,
                                                               gcs: PymavlinkGcs) -> None:
     status, s, output = run_script(flood_sitl, "water_sampling", "--figure", "fig13.png")
