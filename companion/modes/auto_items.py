@@ -252,7 +252,8 @@ class LoiterItem(NavItem):
         params, p3 = self.run.host.params, self.item.param3
         if abs(p3) > 0:
             self.run.task = CircleTask(params, self.point, abs(p3), clockwise=p3 > 0, drift=self.run.drift,
-                                       water_current=estimator_current(self.run.host))
+                                       water_current=estimator_current(self.run.host),
+                                       trials=self.run.host.station_trials)
         else:
             self.run.task = StationTask(params, self.point, nav.heading_rad)
         self.run.phase = Phase.LOITER

@@ -38,6 +38,7 @@ from companion.guidance.waypoints import (
 from companion.messages import NavState
 from companion.modes.base import Mode, NavTarget, requires_position
 from companion.modes.host import ModeHost
+from companion.modes.station_trials import StationTrials
 from companion.modes.stem_hold import StemHold
 from companion.params import ParamStore
 
@@ -241,14 +242,18 @@ class CircleTask:
     def __init__(self, params: ParamStore, point: tuple[float, float], radius_m: float,
                  clockwise: bool = True, approach_speed_mps: float = 3.0,
                  drift: CurrentObserver | None = None,
-                 water_current: Callable[[], tuple[float, float] | None] | None = None) -> None:
+                 water_current: Callable[[], tuple[float, float] | None] | None = None,
+                 trials: StationTrials | None = None) -> None:
         """``water_current``: the estimator's confident water current (north, east m/s) or
         ``None``, used to choose between circling and holding on the circle while ``drift`` has
-        not yet seen the boat steer in two directions (the first item after a straight leg)."""
+        not yet seen the boat steer in two directions (the first item after a straight leg).
+        ``trials``: where holding bow into the current failed (:meth:`StemHold.when_needed`); a
+        hold the boat ran up the current from (``StemHold.ran_up``) is recorded there."""
         self.frame = LocalFrame(*point)
         self.params = params
         self.drift = drift
         self.water_current = water_current
+        self.trials = trials
         self.point = point
         self.radius_m = max(radius_m, params.get("USV_TURN_RAD"))
         self.tracker = CircleTracker((0.0, 0.0), self.radius_m, clockwise, circle_gains(params))
@@ -283,7 +288,8 @@ class CircleTask:
         if self.stem is None and not self.circling:
             current, strength_mps = self._current()
             self.stem = StemHold.when_needed(self.params, current, self.radius_m, pos, nav.heading_rad,
-                                             strength_mps, (nav.vel_north_mps, nav.vel_east_mps))
+                                             strength_mps, (nav.vel_north_mps, nav.vel_east_mps),
+                                             self.trials, nav.t_s)
             self.circling = self.stem is None and out.distance_m < self.radius_m + DECIDE_OUTSIDE_M
             if self.stem is not None:
                 log.info("circle item: holding on the circle in a %.2f m/s current (%.1f m out)",
@@ -292,6 +298,8 @@ class CircleTask:
             target = self.stem.step(pos, nav, dt_s)
             if not self.stem.lost:
                 return target
+            if self.stem.ran_up and self.trials is not None:
+                self.trials.failed(self.stem.current_ne_mps, nav.t_s)
             retry = self.on_circle_since_s is None and not self._hold_retried
             log.warning("circle item: the hold given up %.1f m from its point on the circle (%s); %s",
                         math.dist(pos, self.stem.hold_ne),

@@ -19,6 +19,7 @@ from companion.guidance.params import leg_config, los_gains
 from companion.guidance.stem import below_route, stem_route
 from companion.guidance.waypoints import LegNavigator
 from companion.messages import NavState
+from companion.modes.station_trials import StationTrials
 from companion.params import ParamStore
 
 STEM_ARRIVAL_MPS = 1.0
@@ -87,6 +88,13 @@ CREEP_REACH_S = 60.0
 """... or this long after the keeper took over (without its integral the keeper can leave the boat
 at idle where creep, current and wind cancel: on the flood's tuning seeds 22/23 a retried first
 hold sat there 475 s and 900+ s and the bottle never filled)."""
+CREEP_RUN_UP_MPS = 0.45
+CREEP_RUN_UP_S = 3.0
+"""Below the idle creep a hold that has reached its point is also given up when the boat runs up
+the current faster than CREEP_RUN_UP_MPS for CREEP_RUN_UP_S (net, leaky count), and the vehicle
+remembers the current (:attr:`StemHold.ran_up`): with wind against the current the idling boat ran up
+at 0.52-0.91 m/s on its hold (median), where holds that work crept 0.00-0.31 m/s (issue 15's flood,
+wind along or across the current; ``docs/tuning.md``), and was given up only 4 m off."""
 
 
 class StemHold:
@@ -140,20 +148,30 @@ class StemHold:
         """The boat has been within :data:`CREEP_ON_HOLD_M` of the hold point."""
         self.lost = False
         """Set when the hold is given up for circling: below the idle creep when it has crept off
-        (:data:`CREEP_LOST_M`); either side of it when it never got near its point
-        (:data:`CREEP_REACH_S`, :data:`STEM_REACH_S`)."""
+        (:data:`CREEP_LOST_M`) or runs up the current (:data:`CREEP_RUN_UP_MPS`); either side of it
+        when it never got near its point (:data:`CREEP_REACH_S`, :data:`STEM_REACH_S`)."""
+        self.ran_up = False
+        """Given up below the idle creep because the boat ran up the current on its hold: the
+        drift (current less the wind's push) is too weak to hold in, which the vehicle remembers."""
+        self._run_up_s = 0.0
 
     @classmethod
     def when_needed(cls, params: ParamStore, current_ne_mps: tuple[float, float] | None, radius_m: float,
                     pos_ne: tuple[float, float], heading_rad: float,
                     strength_mps: float | None = None,
-                    vel_ne_mps: tuple[float, float] = (0.0, 0.0)) -> StemHold | None:
+                    vel_ne_mps: tuple[float, float] = (0.0, 0.0),
+                    trials: StationTrials | None = None, t_s: float = 0.0) -> StemHold | None:
         """A hold on ``current_ne_mps`` (north, east m/s; ``None``: unknown) when ``strength_mps``
-        (default: its speed) is at least ``USV_CIRC_HOLD_C``, else ``None`` (circle)."""
+        (default: its speed) is at least ``USV_CIRC_HOLD_C``, else ``None`` (circle); nor below the
+        idle creep in a current where holding bow into it failed before (``trials``, at ``t_s``)."""
         limit = params.get_or("USV_CIRC_HOLD_C", 0.0)
         if current_ne_mps is None or limit <= 0.0:
             return None
-        if (math.hypot(*current_ne_mps) if strength_mps is None else strength_mps) < limit:
+        strength = math.hypot(*current_ne_mps) if strength_mps is None else strength_mps
+        if strength < limit:
+            return None
+        if (trials is not None and strength < params.get_or("USV_HOLD_CREEP", 0.0)
+                and trials.ruled_out(current_ne_mps, t_s)):
             return None
         return cls(params, radius_m, current_ne_mps, pos_ne, heading_rad, vel_ne_mps)
 
@@ -190,12 +208,16 @@ class StemHold:
             self.lost = True
         if not self.below_creep and not self.near_circle and self.keeper_s > STEM_REACH_S:
             self.lost = True
+        down_mps = downstream_speed_mps((nav.vel_north_mps, nav.vel_east_mps), self.current_ne_mps)
+        if self.below_creep and self.on_hold and not self.lost:
+            running = down_mps < -CREEP_RUN_UP_MPS
+            self._run_up_s = max(0.0, self._run_up_s + (dt_s if running else -0.5 * dt_s))
+            self.lost = self.ran_up = self._run_up_s > CREEP_RUN_UP_S
         out = self.keeper.update(pos_ne, self.current_ne_mps, dt_s)
         downstream_m = along_across_m(pos_ne, self.hold_ne, self.current_ne_mps)[0]
         heading, speed = self.turn.command(
             out.heading_rad, out.surge_speed_mps, nav.heading_rad, nav.r_radps, downstream_m,
-            downstream_speed_mps((nav.vel_north_mps, nav.vel_east_mps), self.current_ne_mps),
-            current_along_mps(nav.heading_rad, self.current_ne_mps))
+            down_mps, current_along_mps(nav.heading_rad, self.current_ne_mps))
         if self.below_creep and abs(wrap_pi(out.heading_rad - nav.heading_rad)) < CREEP_CAP_WITHIN_RAD:
             speed = min(speed, out.surge_cap_mps)
         return ControlTarget(heading, speed, is_heading=True, hold_station=not self.turn.powered)

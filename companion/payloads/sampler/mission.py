@@ -71,6 +71,7 @@ class SampleHereItem(NavItem):
         default_radius_m = params.get_or("USV_SMPL_CIRC_M", params.get("USV_TURN_RAD"))
         radius = self.item.param2 if self.item.param2 > 0 else default_radius_m
         self.run.task = CircleTask(params, self.point, radius, drift=self.run.drift,
+                                   trials=self.run.host.station_trials,
                                    water_current=estimator_current(self.run.host))
         self.run.phase = Phase.ACTION
         return False
