@@ -16,6 +16,7 @@ from companion.guidance.stem import stem_route
 from companion.guidance.waypoints import UTurnLatch, drift_lead_m, pivot_speed_mps, u_turn_sign
 from companion.messages import NavState
 from companion.modes.navigation import CircleTask, GotoTask
+from companion.modes.station_trials import StationTrials
 from companion.param_table import all_param_defs
 from companion.params import ParamStore
 
@@ -336,6 +337,39 @@ def test_hold_below_the_creep_is_reached_from_downstream_bow_into_the_current() 
     assert not stem.holding
     target = upstream.step(_nav(frame, *below, 0.0, -0.3), 0.1)  # there: the keeper, bow upstream
     assert stem.holding and abs(wrap_pi(target.course_rad - math.radians(270.0))) < math.radians(45.0)
+
+
+def test_hold_below_the_creep_that_the_boat_runs_up_the_current_from_is_given_up_and_remembered() -> None:
+    """On its hold below the idle creep, a boat running up the current faster than 0.45 m/s for 3 s
+    (wind against the current: the drift is weaker than the creep) gives the hold up for circling,
+    and the vehicle's record makes the next circle item in that current circle at once; creeping
+    up at 0.2 m/s (the hold's design: along a chord of the circle) goes on holding."""
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+
+    def hold_for(upstream_mps: float, trials: StationTrials) -> CircleTask:
+        task = CircleTask(_creep_params(0.4), point, 2.0, water_current=lambda: (0.0, 0.5), trials=trials)
+        task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+        stem = task.stem
+        assert stem is not None and stem.below_creep
+        stem.holding = True  # as if the legs were done
+        for _ in range(40):  # 4 s on the hold point, the current toward east
+            task.step(_nav(frame, *stem.hold_ne, 0.0, -upstream_mps), 0.1)
+        return task
+
+    trials = StationTrials()
+    creeping = hold_for(0.2, trials)
+    assert creeping.stem is not None and not creeping.circling and not trials.ruled_out((0.0, 0.5), 0.0)
+    running = hold_for(0.8, trials)
+    assert running.stem is None and running.circling and trials.ruled_out((0.0, 0.5), 0.0)
+    nxt = CircleTask(_creep_params(0.4), point, 2.0, water_current=lambda: (0.0, 0.5), trials=trials)
+    nxt.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    assert nxt.stem is None  # the next item circles
+    trials.failed((0.0, 1.2), 0.0)  # above the creep the record does not count: the jet stems it
+    strong = CircleTask(_creep_params(0.4), point, 2.0, drift=_observer_after_two_legs((0.0, 1.2)),
+                        trials=trials)
+    strong.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    assert strong.stem is not None and not strong.stem.below_creep
 
 
 def test_hold_below_the_creep_does_not_wind_up_on_the_ferry_to_its_point() -> None:

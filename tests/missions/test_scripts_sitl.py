@@ -59,11 +59,10 @@ def test_rescue_launches_within_tolerance_and_tows_home(flood_sitl: FloodSitl, g
     "then sampling) at 3ab42ad: 2.20/2.28/1.47/3.40 and 4.48/2.06/1.56/3.39 m (limit 1.2 m); the bottles "
     "were filled within 2.5 m. A 2 m circle is out of the hull's reach on its downstream side in "
     "0.5 m/s (docs/tuning.md, 'What the hull can circle in a current'). With USV_CIRC_HOLD_C 0.4 (opt-in "
-    "hold on the circle below the idle creep, reached from downstream since a8aafe5) the same sequence "
-    "gave 0.47/0.47/0.43/0.62 and 0.48/0.50/0.48/0.49 m, and the sampling script alone from rest after "
-    "arming 1.12-2.03 m at its worst point (seeds 3, 21-23); not the default: with 6 m/s of wind against "
-    "a 0.5 m/s current that hold creeps off upstream (worst point 6.8-15.2 m in-process on the four 0.5 m/s "
-    "cells of the tuning weather, circling 2.6-4.9 m)"))
+    "hold on the circle below the idle creep; f47aa00) the same sequence gave 0.47/0.50/0.50/0.47 and "
+    "0.47/0.49/0.49/0.55 m, the sampling script alone from rest after arming 3.62 and 1.75 m at its worst "
+    "point (seeds 21, 22); not the default: on the tuning grid it made the sampling circle's worst case "
+    "worse (7.39 -> 8.71 m), though its mean better (2.60 -> 2.48 m)"))
 def test_water_sampling_fills_four_bottles_inside_the_circles(flood_sitl: FloodSitl,
                                                               gcs: PymavlinkGcs) -> None:
     status, s, output = run_script(flood_sitl, "water_sampling", "--figure", "fig13.png")
