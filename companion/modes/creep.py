@@ -15,6 +15,7 @@ from companion.guidance.bow_turn import downstream_speed_mps
 from companion.guidance.geo import wrap_pi
 from companion.guidance.holding import orbit_clockwise
 from companion.messages import NavState
+from companion.modes.evidence import LeakyEvidence
 from companion.modes.holding import CurrentStationTask, OrbitTask
 from companion.modes.host import ModeHost
 
@@ -40,7 +41,7 @@ class CreepWatch:
     without the current being weak (``docs/tuning.md``)."""
 
     def __init__(self) -> None:
-        self.evidence_s = 0.0
+        self.evidence = LeakyEvidence()
         self._closest_m = math.inf
         self._closest_t_s = 0.0
 
@@ -57,9 +58,8 @@ class CreepWatch:
 
     def count(self, failing: bool, dt_s: float, after_s: float) -> bool:
         """Leaky evidence counter: True (and reset) after ``after_s`` of net failure."""
-        self.evidence_s = max(0.0, self.evidence_s + (dt_s if failing else -0.5 * dt_s))
-        if self.evidence_s > after_s:
-            self.evidence_s = 0.0
+        if self.evidence.add(failing, dt_s) > after_s:
+            self.evidence.seconds = 0.0
             return True
         return False
 

@@ -19,6 +19,7 @@ from companion.guidance.params import leg_config, los_gains
 from companion.guidance.stem import below_route, stem_route
 from companion.guidance.waypoints import LegNavigator
 from companion.messages import NavState
+from companion.modes.evidence import LeakyEvidence
 from companion.modes.station_trials import StationTrials
 from companion.params import ParamStore
 
@@ -153,7 +154,7 @@ class StemHold:
         self.ran_up = False
         """Given up below the idle creep because the boat ran up the current on its hold: the
         drift (current less the wind's push) is too weak to hold in, which the vehicle remembers."""
-        self._run_up_s = 0.0
+        self._run_up = LeakyEvidence()
 
     @classmethod
     def when_needed(cls, params: ParamStore, current_ne_mps: tuple[float, float] | None, radius_m: float,
@@ -210,9 +211,7 @@ class StemHold:
             self.lost = True
         down_mps = downstream_speed_mps((nav.vel_north_mps, nav.vel_east_mps), self.current_ne_mps)
         if self.below_creep and self.on_hold and not self.lost:
-            running = down_mps < -CREEP_RUN_UP_MPS
-            self._run_up_s = max(0.0, self._run_up_s + (dt_s if running else -0.5 * dt_s))
-            self.lost = self.ran_up = self._run_up_s > CREEP_RUN_UP_S
+            self.lost = self.ran_up = self._run_up.add(down_mps < -CREEP_RUN_UP_MPS, dt_s) > CREEP_RUN_UP_S
         out = self.keeper.update(pos_ne, self.current_ne_mps, dt_s)
         downstream_m = along_across_m(pos_ne, self.hold_ne, self.current_ne_mps)[0]
         heading, speed = self.turn.command(
