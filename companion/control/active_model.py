@@ -44,7 +44,8 @@ every heading wobble into thrust (nozzle from stop to stop, throttle 0.8-1.0) an
 ``current``) below ``turn_boost_speed_mps`` gets the near-standstill nozzle floor and turn-scaled
 thrust too, but not the throttle cap, which is for a boat that is slow over ground (a corner taken
 down a current still gets the thrust that turns it).  So does a boat slowing down to stop at the
-end of its route (``ControlTarget.stopping``: GUIDED's and RTL's legs, AUTO's last waypoint) while
+end of a leg with no next point (``ControlTarget.stopping``: GUIDED's and RTL's legs, AUTO's last
+waypoint and its legs to items it circles) while
 it is still more than the speed law's brake deadband faster than asked: with the surge demand near
 zero every wave's yaw put the nozzle at its stop and the yaw priority held the throttle at 0.5-0.9,
 so the boat reached its point at 2.5 m/s.  Slowing down for a corner keeps the full priority: the

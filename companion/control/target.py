@@ -42,9 +42,10 @@ class ControlTarget:
     after every mode change (it is reset on entry).  A U-turn onto a leg gives the component along
     the bow as it turns (:func:`companion.guidance.waypoints.pivot_speed_mps`)."""
     stopping: bool = False
-    """The speed is slowing the boat down to stop at a point (the last leg of a route: GUIDED's and
-    RTL's, AUTO's last waypoint), not for a corner: while the boat is still faster than asked, the
-    active model gives a heading wobble only the turn-scaled thrust of a slow boat
+    """The speed is slowing the boat down to stop at a point, not for a corner: set by the leg
+    follower on a leg with no next point (GUIDED's and RTL's legs, AUTO's last waypoint and its legs
+    to items it circles or holds, the legs of the hold on a circle).  While the boat is still faster
+    than asked, the active model gives a heading wobble only the turn-scaled thrust of a slow boat
     (:mod:`companion.control.active_model`)."""
 
 
