@@ -54,7 +54,9 @@ MISSED_TODAY = {
                                 "the item holds on the circle bow into the current (USV_CIRC_HOLD_C), "
                                 "0.5-2.0 m from it after the merge; in 0.5 m/s it circles, 1.0-2.3 m. "
                                 "Full grid at 41d5ff3 (the hold on the circle reworked), these two "
-                                "cells: 1.76 m (1.2 m/s, holding) and 1.26 m (0.5 m/s, circling)",
+                                "cells: 1.76 m (1.2 m/s, holding) and 1.26 m (0.5 m/s, circling); "
+                                "with the hold below the creep the default (USV_CIRC_HOLD_C 0.4), full "
+                                "grid: 2.17 m (1.2 m/s) and 1.75 m (0.5 m/s, holding, wind across)",
 }
 """Targets today's product misses on these cells, with the figures measured (the xfail reasons).
 LOITER above idle creep holds since wip/hold: 0.65 m (main at 08b0103: 11.7-12.2 m)."""

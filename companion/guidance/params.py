@@ -64,12 +64,13 @@ PARAMS: tuple[ParamDef, ...] = (
              "Time the boat needs to build up its turn rate; turns at corners start this much earlier."),
     ParamDef("USV_CIRC_K", 1.0, 0.1, 20.0, "", "Point tracking: convergence gain onto the circle."),
     ParamDef("USV_CIRC_KI", 0.0, 0.0, 1.0, "1/s", "Point tracking: integral gain on the radial error."),
-    ParamDef("USV_CIRC_HOLD_C", 0.7, 0.0, 5.0, "m/s",
+    ParamDef("USV_CIRC_HOLD_C", 0.4, 0.0, 5.0, "m/s",
              "Circle items (sampling, LOITER_TURNS) in a current at least this strong (observed) keep "
              "station on the circle, bow into the current, instead of circling (companion/guidance/stem.py). "
-             "Below USV_HOLD_CREEP (e.g. 0.4: opt-in) the hold point is 30 deg downstream of the line across "
-             "the current and the boat creeps upstream along a chord (README: better in the tests' 0.5 m/s "
-             "flood, worse on a usv bench nav cell). 0: always circle."),
+             "Below USV_HOLD_CREEP the hold point is 30 deg downstream of the line across the current and "
+             "the boat creeps upstream along a chord; a hold the boat creeps or runs off is given up for "
+             "circling (README). 0.7 (the idle creep): circle in every current the jet cannot stem. "
+             "0: always circle."),
     ParamDef("USV_CIRC_SPD", 1.6, 0.5, 10.0, "m/s", "Point tracking: speed while circling a point."),
     ParamDef("USV_TURN_RAD", 2.0, 0.5, 50.0, "m",
              "Smallest circle the boat holds under control (default and minimum radius of point tracking). "

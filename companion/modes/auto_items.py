@@ -32,10 +32,10 @@ from companion.messages import NavState, Severity
 from companion.mission import items as mi
 from companion.mission.items import MissionItem
 from companion.mission.validate import ItemCheck
+from companion.modes.circle_item import CircleTask
 from companion.modes.holding import OrbitTask
 from companion.modes.host import ModeHost
 from companion.modes.navigation import (
-    CircleTask,
     GotoTask,
     StationTask,
     Task,

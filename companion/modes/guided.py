@@ -12,10 +12,11 @@ from __future__ import annotations
 
 from companion.messages import GuidedTarget, ModeNumber, NavState
 from companion.modes.base import ModeOutput
+from companion.modes.circle_item import CircleTask
 from companion.modes.creep import CreepWatch, orbit_if_creeping
 from companion.modes.holding import ApproachTask, BrakingGoto, goto_task, hold_task
 from companion.modes.host import ModeHost
-from companion.modes.navigation import CircleTask, GotoTask, NavMode, StationTask, wp_speed_mps
+from companion.modes.navigation import GotoTask, NavMode, StationTask, wp_speed_mps
 
 
 class GuidedMode(NavMode):

@@ -6,7 +6,7 @@ A water jet idles with thrust (the simulated boat creeps at about 0.7 m/s at idl
 - current stronger than idle speed: keep station bow into the current
   (:class:`~companion.modes.navigation.StationTask`), the jet stemming the current;
 - weaker current: the boat cannot stand still, so it orbits the point on the smallest circle it
-  holds under control (:class:`~companion.modes.navigation.CircleTask`, radius
+  holds under control (:class:`~companion.modes.circle_item.CircleTask`, radius
   ``max(USV_TURN_RAD, LOIT_RADIUS - 0.5 m)``).
 
 With a water-current estimate (``host.water_current``, ``USV_HOLD_MODE`` 1) the choice is made
@@ -32,10 +32,11 @@ from __future__ import annotations
 from companion.control.target import ControlRequest
 from companion.messages import ModeNumber, NavState
 from companion.modes.base import ModeOutput, StandardMode
+from companion.modes.circle_item import CircleTask
 from companion.modes.creep import CreepWatch, orbit_instead, trial_creeping
 from companion.modes.holding import CurrentStationTask, EngineStopTask, engine_stop_task, hold_task
 from companion.modes.host import ModeHost
-from companion.modes.navigation import CircleTask, NavMode, StationTask, param
+from companion.modes.navigation import NavMode, StationTask, param
 
 STATION_AFTER_S = 8.0
 

@@ -2,7 +2,8 @@
 
 Navigation *tasks* are small stateful objects a mode runs one at a time: go to a point along a
 leg (:class:`GotoTask`, ILOS/ALOS), keep station on a point with the bow into the current
-(:class:`StationTask`), or circle a point (:class:`CircleTask`, GPS point tracking).  Each
+(:class:`StationTask`), or circle a point
+(:class:`~companion.modes.circle_item.CircleTask`, GPS point tracking).  Each
 ``step(nav)`` returns a :class:`~companion.control.target.ControlTarget` for the host's
 :class:`~companion.control.system.ControlSystem`.  Positions are handled in a flat-earth frame
 anchored where the task starts (:mod:`companion.guidance.geo`).
@@ -19,12 +20,11 @@ from typing import Protocol
 from companion.angles import current_along_mps
 from companion.clock import StepTimer
 from companion.control.target import ControlRequest, ControlTarget
-from companion.guidance.circle import CircleTracker
 from companion.guidance.current import CurrentObserver, crab_heading, water_speed_mps
 from companion.guidance.geo import LocalFrame, distance_bearing, wrap_2pi, wrap_pi
 from companion.guidance.hold_params import current_station_gains
 from companion.guidance.los import LosFollower, LosType
-from companion.guidance.params import circle_gains, leg_config, los_gains, station_gains
+from companion.guidance.params import leg_config, los_gains, station_gains
 from companion.guidance.sidestep import SIDESTEP_MAX_SOG_MPS, SideStep
 from companion.guidance.station import StationKeeper
 from companion.guidance.waypoints import (
@@ -38,8 +38,6 @@ from companion.guidance.waypoints import (
 from companion.messages import NavState
 from companion.modes.base import Mode, NavTarget, requires_position
 from companion.modes.host import ModeHost
-from companion.modes.station_trials import StationTrials
-from companion.modes.stem_hold import StemHold
 from companion.params import ParamStore
 
 log = logging.getLogger(__name__)
@@ -222,126 +220,6 @@ class StationTask:
         out = self.keeper.update(self.frame.to_ne(nav.lat_deg, nav.lon_deg), dt_s)
         self.distance_m = out.distance_m
         return ControlTarget(out.heading_rad, out.surge_speed_mps, is_heading=True, hold_station=True)
-
-
-ESTIMATE_AGREE_MPS = 0.15
-"""The estimator's current counts for the choice when it is within this of the observer's on every
-axis the observer has seen (:meth:`~companion.guidance.current.CurrentObserver.agrees`)."""
-ESTIMATE_STRONG_MARGIN_MPS = 0.3
-"""The estimator's current picks the hold on its own when it is at least this above
-``USV_CIRC_HOLD_C``: wind can cancel that much of it only rarely, and the observer, which learns the
-drift only across the bow, can read under the threshold after a hold (``docs/tuning.md``)."""
-DECIDE_OUTSIDE_M = 8.0
-"""A circle item chooses between circling and holding on the circle until the boat is this close
-to the circle (the hold's route starts with a point up to this far out)."""
-
-
-class CircleTask:
-    """Approach ``point`` and circle it at ``radius_m``; counts turns and time on the circle."""
-
-    def __init__(self, params: ParamStore, point: tuple[float, float], radius_m: float,
-                 clockwise: bool = True, approach_speed_mps: float = 3.0,
-                 drift: CurrentObserver | None = None,
-                 water_current: Callable[[], tuple[float, float] | None] | None = None,
-                 trials: StationTrials | None = None) -> None:
-        """``water_current``: the estimator's confident water current (north, east m/s) or
-        ``None``, used to choose between circling and holding on the circle while ``drift`` has
-        not yet seen the boat steer in two directions (the first item after a straight leg).
-        ``trials``: where holding bow into the current failed (:meth:`StemHold.when_needed`); a
-        hold the boat ran up the current from (``StemHold.ran_up``) is recorded there."""
-        self.frame = LocalFrame(*point)
-        self.params = params
-        self.drift = drift
-        self.water_current = water_current
-        self.trials = trials
-        self.point = point
-        self.radius_m = max(radius_m, params.get("USV_TURN_RAD"))
-        self.tracker = CircleTracker((0.0, 0.0), self.radius_m, clockwise, circle_gains(params))
-        self.circle_speed_mps = params.get("USV_CIRC_SPD")
-        self.approach_speed_mps = approach_speed_mps
-        self.on_circle_since_s: float | None = None
-        self.stem: StemHold | None = None
-        """Set when the current is too strong to circle in: the boat holds on the circle."""
-        self.circling = False
-        """Set once the boat circles (closer than :data:`DECIDE_OUTSIDE_M` outside the circle with no
-        hold picked): the choice is not revisited (a hold picked in the middle of a lap swept the boat
-        9 m off the circle; one picked 3 m out ran its route through the circle)."""
-        self._hold_retried = False
-        """A hold lost before the boat came near the circle is flown once more from where it is."""
-        self.turns = 0.0
-        self._last_bearing: float | None = None
-        self.distance_m = math.inf
-        self.radial_error_m = math.inf
-        self.cross_track_m = 0.0
-
-    def step(self, nav: NavState, dt_s: float) -> ControlTarget:
-        pos = self.frame.to_ne(nav.lat_deg, nav.lon_deg)
-        out = self.tracker.update(pos, nav.speed_over_ground_mps, dt_s)
-        self.distance_m, self.radial_error_m = out.distance_m, out.radial_error_m
-        if self.on_circle_since_s is None and out.distance_m <= self.radius_m + 0.5:
-            self.on_circle_since_s = nav.t_s
-        if self.on_circle_since_s is not None:
-            bearing = distance_bearing(*pos)[1]
-            if self._last_bearing is not None:
-                self.turns += abs(wrap_pi(bearing - self._last_bearing)) / (2 * math.pi)
-            self._last_bearing = bearing
-        if self.stem is None and not self.circling:
-            current, strength_mps = self._current()
-            self.stem = StemHold.when_needed(self.params, current, self.radius_m, pos, nav.heading_rad,
-                                             strength_mps, (nav.vel_north_mps, nav.vel_east_mps),
-                                             self.trials, nav.t_s)
-            self.circling = self.stem is None and out.distance_m < self.radius_m + DECIDE_OUTSIDE_M
-            if self.stem is not None:
-                log.info("circle item: holding on the circle in a %.2f m/s current (%.1f m out)",
-                         math.hypot(*self.stem.current_ne_mps), out.distance_m)
-        if self.stem is not None:
-            target = self.stem.step(pos, nav, dt_s)
-            if not self.stem.lost:
-                return target
-            if self.stem.ran_up and self.trials is not None:
-                self.trials.failed(self.stem.current_ne_mps, nav.t_s)
-            retry = self.on_circle_since_s is None and not self._hold_retried
-            log.warning("circle item: the hold given up %.1f m from its point on the circle (%s); %s",
-                        math.dist(pos, self.stem.hold_ne),
-                        "after reaching it" if self.stem.on_hold else "never there",
-                        "again from here" if retry else "circling")
-            if retry:  # not yet near the circle: a second approach costs no tracking error
-                self._hold_retried = True
-                self.stem = StemHold(self.params, self.radius_m, self.stem.current_ne_mps, pos,
-                                     nav.heading_rad)
-                return self.stem.step(pos, nav, dt_s)
-            self.stem, self.circling = None, True
-        far = out.distance_m > self.radius_m + 10.0
-        speed = self.approach_speed_mps if far else self.circle_speed_mps
-        target = ControlTarget(out.course_rad, speed, out.course_rate_radps)
-        return crabbed(target, nav, crab_feed_forward(self.params, self.drift))
-
-    def _current(self) -> tuple[tuple[float, float] | None, float]:
-        """The current the hold would be flown on and the strength the circle-or-hold choice is
-        made on.  The current: the observer's once it has converged (it includes the wind's leeway),
-        else the estimator's if it agrees within :data:`ESTIMATE_AGREE_MPS` with what the observer
-        has seen (10 s after arming the estimator read 128 deg for a current toward 90), else
-        ``None``.  The strength: the stronger of the two (the observer's, time constant 6 s, read
-        0.3-0.4 m/s at times in 0.5 m/s).  The estimator counts only below the idle creep
-        (``USV_HOLD_CREEP``): the hold that stems a stronger current is chosen on the observer alone,
-        as before (in 0.8 m/s against 5 m/s of wind the estimator's 0.8 m/s, which has no leeway,
-        picked it at the first point and the boat never got onto the circle in 900 s), unless it is
-        :data:`ESTIMATE_STRONG_MARGIN_MPS` above ``USV_CIRC_HOLD_C``: then it counts too, and is the
-        hold's current until the observer has converged."""
-        observed = self.drift.current_ne_mps if self.drift is not None and self.drift.converged else None
-        raw = estimated = self.water_current() if self.water_current is not None else None
-        if estimated is not None and (
-                math.hypot(*estimated) >= self.params.get_or("USV_HOLD_CREEP", 0.0)
-                or (self.drift is not None and not self.drift.agrees(estimated, ESTIMATE_AGREE_MPS))):
-            estimated = None
-        strength = max((math.hypot(*c) for c in (observed, estimated) if c is not None), default=0.0)
-        strong_mps = self.params.get_or("USV_CIRC_HOLD_C", 0.0) + ESTIMATE_STRONG_MARGIN_MPS
-        if raw is not None and math.hypot(*raw) >= max(strong_mps, strength):
-            return (observed or raw), math.hypot(*raw)
-        return (observed or estimated), strength
-
-    def time_on_circle_s(self, now_s: float) -> float:
-        return 0.0 if self.on_circle_since_s is None else now_s - self.on_circle_since_s
 
 
 class Task(Protocol):

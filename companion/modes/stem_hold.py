@@ -47,7 +47,13 @@ STEM_REACH_S = 60.0
 come within STEM_NEAR_CIRCLE_M outside the circle STEM_REACH_S after the station keeper took over,
 like the hold below the creep (:data:`CREEP_REACH_S`): wind against the current can leave the keeper
 stalled off its point, and the bottle would never fill (``docs/tuning.md``)."""
-
+STEM_RUN_UP_M = 4.0
+"""Above the idle creep a hold is also given up for circling once the boat, having been near the
+circle, is more than STEM_RUN_UP_M upstream of its hold point, and the vehicle records the current
+(:class:`~companion.modes.station_trials.StationTrials`: LOITER and GUIDED then orbit in it): with
+wind against the current the idling boat ran up the current off its hold (0.8 m/s, 6 m/s of wind
+against it, in-process: 5 m upstream, then ferrying across the current 4-8 m off its point until
+the minute of :data:`STEM_REACH_S` ran out; ``docs/tuning.md``)."""
 
 CREEP_ABEAM_M = 8.0
 """Below the idle creep the abeam point is this far outside the circle (at 5 m the boat came in at
@@ -80,8 +86,10 @@ bow is farther off: idling then, the jet barely turned and the boat drifted 7 m 
 first point)."""
 CREEP_ON_HOLD_M = 1.0
 CREEP_LOST_M = 4.0
-"""Below the idle creep a hold that has reached its point (within CREEP_ON_HOLD_M) and then crept
-this far off it is given up for circling (the boat cannot stop: it crept upstream 60 m in 0.3 m/s,
+"""Below the idle creep a hold that has reached its point (within CREEP_ON_HOLD_M, or the boat has
+been within :data:`STEM_NEAR_CIRCLE_M` outside the circle: one that came onto the circle 1.1 m from
+its point ferried off at idle to 16 m in 50 s, wind against the current) and then crept this far
+off it is given up for circling (the boat cannot stop: it crept upstream 60 m in 0.3 m/s,
 looping, and the bottle never filled) ..."""
 CREEP_RUNAWAY_M = 20.0
 """... and one that has never reached it, this far off ..."""
@@ -91,11 +99,12 @@ at idle where creep, current and wind cancel: on the flood's tuning seeds 22/23 
 hold sat there 475 s and 900+ s and the bottle never filled)."""
 CREEP_RUN_UP_MPS = 0.45
 CREEP_RUN_UP_S = 3.0
-"""Below the idle creep a hold that has reached its point is also given up when the boat runs up
-the current faster than CREEP_RUN_UP_MPS for CREEP_RUN_UP_S (net, leaky count), and the vehicle
-remembers the current (:attr:`StemHold.ran_up`): with wind against the current the idling boat ran up
-at 0.52-0.91 m/s on its hold (median), where holds that work crept 0.00-0.31 m/s (issue 15's flood,
-wind along or across the current; ``docs/tuning.md``), and was given up only 4 m off."""
+"""Below the idle creep a hold that has reached its point (as for :data:`CREEP_LOST_M`) is also
+given up when the boat runs up the current faster than CREEP_RUN_UP_MPS for CREEP_RUN_UP_S (net,
+leaky count), and the vehicle remembers the current (:attr:`StemHold.ran_up`): with wind against
+the current the idling boat ran up at 0.52-0.91 m/s on its hold (median), where holds that work
+crept 0.00-0.31 m/s (issue 15's flood, wind along or across the current; ``docs/tuning.md``), and
+was given up only 4 m off."""
 
 
 class StemHold:
@@ -106,11 +115,13 @@ class StemHold:
 
     def __init__(self, params: ParamStore, radius_m: float, current_ne_mps: tuple[float, float],
                  pos_ne: tuple[float, float], heading_rad: float,
-                 vel_ne_mps: tuple[float, float] = (0.0, 0.0)) -> None:
+                 vel_ne_mps: tuple[float, float] = (0.0, 0.0), strength_mps: float | None = None) -> None:
         """``pos_ne``, ``heading_rad``, ``vel_ne_mps``: where the boat is (north, east m from the
         circle's centre), its bow, and its velocity over ground (the side of the hold,
-        :data:`STEM_SIDE_AHEAD_S`)."""
-        self.below_creep = math.hypot(*current_ne_mps) < params.get_or("USV_HOLD_CREEP", 0.0)
+        :data:`STEM_SIDE_AHEAD_S`).  ``strength_mps``: the strength the hold was chosen on (default:
+        the current's speed); below ``USV_HOLD_CREEP`` the hold is the one below the idle creep."""
+        self.strength_mps = math.hypot(*current_ne_mps) if strength_mps is None else strength_mps
+        self.below_creep = self.strength_mps < params.get_or("USV_HOLD_CREEP", 0.0)
         """The boat cannot stand on the hold point (:mod:`companion.guidance.stem`): wider abeam
         point, hold point turned downstream."""
         ahead_m = STEM_SIDE_AHEAD_S * math.hypot(*vel_ne_mps)
@@ -149,11 +160,13 @@ class StemHold:
         """The boat has been within :data:`CREEP_ON_HOLD_M` of the hold point."""
         self.lost = False
         """Set when the hold is given up for circling: below the idle creep when it has crept off
-        (:data:`CREEP_LOST_M`) or runs up the current (:data:`CREEP_RUN_UP_MPS`); either side of it
-        when it never got near its point (:data:`CREEP_REACH_S`, :data:`STEM_REACH_S`)."""
+        (:data:`CREEP_LOST_M`) or runs up the current (:data:`CREEP_RUN_UP_MPS`), above it when it
+        has run up the current (:data:`STEM_RUN_UP_M`); either side of it when it never got near its
+        point (:data:`CREEP_REACH_S`, :data:`STEM_REACH_S`)."""
         self.ran_up = False
-        """Given up below the idle creep because the boat ran up the current on its hold: the
-        drift (current less the wind's push) is too weak to hold in, which the vehicle remembers."""
+        """Given up after reaching the hold (below the idle creep: crept off or ran up; above it:
+        ran up): the drift (current less the wind's push) is too weak to hold in, which the vehicle
+        remembers."""
         self._run_up = LeakyEvidence()
 
     @classmethod
@@ -174,7 +187,7 @@ class StemHold:
         if (trials is not None and strength < params.get_or("USV_HOLD_CREEP", 0.0)
                 and trials.ruled_out(current_ne_mps, t_s)):
             return None
-        return cls(params, radius_m, current_ne_mps, pos_ne, heading_rad, vel_ne_mps)
+        return cls(params, radius_m, current_ne_mps, pos_ne, heading_rad, vel_ne_mps, strength)
 
     def _drops_back(self, pos_ne: tuple[float, float], heading_rad: float) -> bool:
         """More than :data:`STEM_DROP_BACK_M` upstream of the hold point, more upstream than across
@@ -204,13 +217,18 @@ class StemHold:
         self.keeper_s += dt_s
         self.on_hold = self.on_hold or off_m < CREEP_ON_HOLD_M
         self.near_circle = self.near_circle or math.hypot(*pos_ne) <= self.radius_m + STEM_NEAR_CIRCLE_M
-        if self.below_creep and (off_m > (CREEP_LOST_M if self.on_hold else CREEP_RUNAWAY_M)
-                                 or (not self.on_hold and self.keeper_s > CREEP_REACH_S)):
+        reached = self.on_hold or self.near_circle
+        if self.below_creep and (off_m > (CREEP_LOST_M if reached else CREEP_RUNAWAY_M)
+                                 or (not reached and self.keeper_s > CREEP_REACH_S)):
             self.lost = True
+            self.ran_up = reached
         if not self.below_creep and not self.near_circle and self.keeper_s > STEM_REACH_S:
             self.lost = True
+        if (not self.below_creep and not self.lost and reached
+                and -along_across_m(pos_ne, self.hold_ne, self.current_ne_mps)[0] > STEM_RUN_UP_M):
+            self.lost = self.ran_up = True
         down_mps = downstream_speed_mps((nav.vel_north_mps, nav.vel_east_mps), self.current_ne_mps)
-        if self.below_creep and self.on_hold and not self.lost:
+        if self.below_creep and reached and not self.lost:
             self.lost = self.ran_up = self._run_up.add(down_mps < -CREEP_RUN_UP_MPS, dt_s) > CREEP_RUN_UP_S
         out = self.keeper.update(pos_ne, self.current_ne_mps, dt_s)
         downstream_m = along_across_m(pos_ne, self.hold_ne, self.current_ne_mps)[0]

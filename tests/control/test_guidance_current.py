@@ -15,7 +15,8 @@ from companion.guidance.sidestep import sidestep_point
 from companion.guidance.stem import stem_route
 from companion.guidance.waypoints import UTurnLatch, drift_lead_m, pivot_speed_mps, u_turn_sign
 from companion.messages import NavState
-from companion.modes.navigation import CircleTask, GotoTask
+from companion.modes.circle_item import CircleTask, circling_clockwise
+from companion.modes.navigation import GotoTask
 from companion.modes.station_trials import StationTrials
 from companion.param_table import all_param_defs
 from companion.params import ParamStore
@@ -115,10 +116,11 @@ def test_circle_item_holds_on_the_circle_only_in_a_current_it_cannot_circle_in(c
 def test_circle_item_picks_the_hold_from_the_estimator_before_the_observer_has_converged() -> None:
     """After one straight leg the observer knows only the current across it: the estimator's
     (confident, agreeing) current below the idle creep decides, so the first sampling point is held
-    too (USV_CIRC_HOLD_C below the creep); an estimate above the creep is left to the observer
-    unless it is 0.3 m/s above USV_CIRC_HOLD_C (0.7 m/s): the boat then holds at once, also when the
-    converged observer reads less (it learns the drift only across the bow, and after a hold it
-    read under the threshold: the boat ran through the next point at 4 m/s before it held)."""
+    too (USV_CIRC_HOLD_C below the creep); with USV_CIRC_HOLD_C at the creep (0.7 m/s) an estimate
+    above the creep is left to the observer unless it is 0.3 m/s above USV_CIRC_HOLD_C: the boat then
+    holds at once, also when the converged observer reads less (it learns the drift only across the
+    bow, and after a hold it read under the threshold: the boat ran through the next point at 4 m/s
+    before it held)."""
     params = ParamStore(all_param_defs())
     params.set("USV_CIRC_HOLD_C", 0.4)
     obs = CurrentObserver()
@@ -135,17 +137,17 @@ def test_circle_item_picks_the_hold_from_the_estimator_before_the_observer_has_c
     disagrees = CircleTask(params, point, 2.0, drift=obs, water_current=lambda: (0.0, 0.1))
     disagrees.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
     assert disagrees.stem is None
-    above_creep = CircleTask(ParamStore(all_param_defs()), point, 2.0, drift=CurrentObserver(),
+    above_creep = CircleTask(_creep_params(0.7), point, 2.0, drift=CurrentObserver(),
                              water_current=lambda: (0.0, 0.9))
     above_creep.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
     assert above_creep.stem is None
-    strong = CircleTask(ParamStore(all_param_defs()), point, 2.0, drift=CurrentObserver(),
+    strong = CircleTask(_creep_params(0.7), point, 2.0, drift=CurrentObserver(),
                         water_current=lambda: (0.0, 1.2))
     strong.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
     assert strong.stem is not None and strong.stem.current_ne_mps == (0.0, 1.2)
     weak_reading = _observer_after_two_legs((0.0, 0.5))
     assert weak_reading.converged
-    after_hold = CircleTask(ParamStore(all_param_defs()), point, 2.0, drift=weak_reading,
+    after_hold = CircleTask(_creep_params(0.7), point, 2.0, drift=weak_reading,
                             water_current=lambda: (0.0, 1.2))
     after_hold.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
     assert after_hold.stem is not None
@@ -288,13 +290,13 @@ def _creep_params(limit_mps: float) -> ParamStore:
     return params
 
 
-def test_circle_item_below_the_idle_creep_holds_only_when_enabled_and_circles_when_the_hold_is_lost() -> None:
+def test_circle_item_below_the_idle_creep_holds_by_default_and_circles_when_the_hold_is_lost() -> None:
     point = (41.77, 123.43)
     frame = LocalFrame(*point)
-    default = CircleTask(ParamStore(all_param_defs()), point, 2.0, water_current=lambda: (0.0, 0.5))
-    default.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
-    assert default.stem is None  # 0.5 m/s is below the default USV_CIRC_HOLD_C (0.7): circles
-    task = CircleTask(_creep_params(0.4), point, 2.0, water_current=lambda: (0.0, 0.5))
+    at_creep = CircleTask(_creep_params(0.7), point, 2.0, water_current=lambda: (0.0, 0.5))
+    at_creep.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    assert at_creep.stem is None  # USV_CIRC_HOLD_C 0.7 (the idle creep): 0.5 m/s is circled
+    task = CircleTask(ParamStore(all_param_defs()), point, 2.0, water_current=lambda: (0.0, 0.5))
     task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
     stem = task.stem
     assert stem is not None and stem.below_creep
@@ -312,6 +314,36 @@ def test_circle_item_below_the_idle_creep_holds_only_when_enabled_and_circles_wh
     first.holding = True
     far.step(_nav(frame, -12.0, -25.0, 0.0, -0.2), 0.1)  # 20+ m upstream, never near the circle
     assert far.stem is not None and far.stem is not first and not far.circling  # flown once more
+
+
+def test_hold_below_the_creep_counts_as_reached_once_the_boat_is_near_the_circle() -> None:
+    """A boat that came onto the circle 1.1 m from its hold point (never within 1 m of it) and then
+    ferried off at idle, wind against the current, gives the hold up 4 m off, as one that reached
+    its point does (it went on 50 s to 16 m off: Fig. 13 error 12.3 m in-process, 0.5 m/s with
+    6 m/s of wind against it); and the run-up rule counts from there too."""
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+
+    def on_circle_then(north_m: float, east_m: float, vel_ne: tuple[float, float]) -> CircleTask:
+        task = CircleTask(_creep_params(0.4), point, 2.0, water_current=lambda: (0.0, -0.5))
+        task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)  # current toward west
+        stem = task.stem
+        assert stem is not None and stem.below_creep
+        stem.holding = True
+        near = (stem.hold_ne[0] + 1.1, stem.hold_ne[1])  # inside the circle, 1.1 m from the point
+        for _ in range(40):
+            task.step(_nav(frame, *near, 0.0, 0.0), 0.1)
+        assert task.stem is stem and not stem.on_hold
+        for _ in range(40):
+            task.step(_nav(frame, north_m, east_m, *vel_ne), 0.1)
+        return task
+
+    crept = on_circle_then(-6.0, -1.0, (0.0, 0.0))  # 4.3 m off its point
+    assert crept.stem is None and crept.circling
+    ran_up = on_circle_then(-0.63, -1.0, (0.0, 0.8))  # 1.1 m off, running up (east) at 0.8 m/s
+    assert ran_up.stem is None and ran_up.circling
+    slow = on_circle_then(-0.63, -1.0, (0.0, 0.2))  # creeping up at 0.2 m/s: holding
+    assert slow.stem is not None and not slow.circling
 
 
 def test_hold_below_the_creep_is_reached_from_downstream_bow_into_the_current() -> None:
@@ -365,11 +397,90 @@ def test_hold_below_the_creep_that_the_boat_runs_up_the_current_from_is_given_up
     nxt = CircleTask(_creep_params(0.4), point, 2.0, water_current=lambda: (0.0, 0.5), trials=trials)
     nxt.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
     assert nxt.stem is None  # the next item circles
+    other = CircleTask(_creep_params(0.4), point, 2.0, water_current=lambda: (0.5, 0.0), trials=trials)
+    other.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    assert other.stem is not None  # another current: held
     trials.failed((0.0, 1.2), 0.0)  # above the creep the record does not count: the jet stems it
     strong = CircleTask(_creep_params(0.4), point, 2.0, drift=_observer_after_two_legs((0.0, 1.2)),
                         trials=trials)
     strong.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
     assert strong.stem is not None and not strong.stem.below_creep
+
+
+def test_hold_above_the_creep_that_the_boat_runs_up_the_current_from_is_given_up_and_remembered() -> None:
+    """Above the idle creep, with wind against the current, the idling boat ran up the current off
+    its hold (0.8 m/s, 6 m/s of wind against it: 5 m upstream, then ferrying across it 4-8 m off for
+    a minute).  Once near the circle, a boat more than 4 m upstream of its hold point gives the hold
+    up for circling, and the vehicle records the current (LOITER and GUIDED then orbit in it); 3 m
+    upstream it goes on holding."""
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    obs = _observer_after_two_legs((0.0, 0.8))
+    trials = StationTrials()
+
+    def hold_then_run_up(upstream_m: float) -> CircleTask:
+        task = CircleTask(ParamStore(all_param_defs()), point, 2.0, drift=obs, trials=trials)
+        task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+        stem = task.stem
+        assert stem is not None and not stem.below_creep
+        stem.holding = True  # as if the leg to the abeam point were done
+        task.step(_nav(frame, *stem.hold_ne, 0.0, 0.0), 0.1)  # on the circle
+        task.step(_nav(frame, stem.hold_ne[0], stem.hold_ne[1] - upstream_m, 0.0, -0.3), 0.1)
+        return task
+
+    held = hold_then_run_up(3.0)
+    assert held.stem is not None and not held.circling and not trials.ruled_out(obs.current_ne_mps, 0.0)
+    ran_up = hold_then_run_up(4.5)
+    assert ran_up.stem is None and ran_up.circling and trials.ruled_out(obs.current_ne_mps, 0.0)
+
+
+def test_hold_is_flown_above_the_creep_when_the_estimator_reads_above_it() -> None:
+    """The hold's current is the observer's (0.6 m/s: it learns the drift only across the bow), the
+    choice's strength the estimator's (0.79 m/s, 0.3 above USV_CIRC_HOLD_C 0.4): the hold is the one
+    for a current the jet stems (abeam point, dropping back from upstream), not the one below the
+    creep, whose legs from upstream ran the boat downstream through the circle at 3 m/s, 20 m past
+    (0.8 m/s, wind along the current)."""
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    obs = _observer_after_two_legs((0.0, 0.6))
+    task = CircleTask(_creep_params(0.4), point, 2.0, drift=obs, water_current=lambda: (0.0, 0.79))
+    task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    stem = task.stem
+    assert stem is not None and not stem.below_creep
+    assert stem.current_ne_mps == pytest.approx(obs.current_ne_mps)
+    stem.holding = True
+    far = _nav(frame, -12.0, -25.0, 0.0, -0.2)  # never near the circle: flown once more
+    for _ in range(601):
+        task.step(far, 0.1)
+    assert task.stem is not None and task.stem is not stem and not task.stem.below_creep
+
+
+@pytest.mark.parametrize(("north_m", "east_m", "heading_deg", "clockwise"), [
+    (2.0, 0.0, 90.0, True), (2.0, 0.0, 270.0, False), (0.0, 3.0, 180.0, True), (-2.5, 2.5, 100.0, False),
+    (-10.0, 0.0, 0.0, True)])
+def test_circling_direction_follows_the_bow_round_the_centre(north_m: float, east_m: float,
+                                                              heading_deg: float, clockwise: bool) -> None:
+    assert circling_clockwise((north_m, east_m), math.radians(heading_deg)) is clockwise
+
+
+def test_a_circle_with_no_direction_turns_the_way_the_bow_goes_when_a_hold_is_given_up() -> None:
+    """A sampling circle (the item has no direction) circles the way the boat is heading round the
+    centre when its hold is given up: 3 m south-east of the centre with the bow east it circles
+    anticlockwise (clockwise, the boat turned through 170 deg away from the circle and was swept
+    9 m off it); a circle with a direction keeps it."""
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    for clockwise, lam in ((None, -1.0), (True, 1.0)):
+        task = CircleTask(_creep_params(0.4), point, 2.0, clockwise=clockwise,
+                          water_current=lambda: (0.0, -0.5))
+        task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+        stem = task.stem
+        assert stem is not None
+        stem.holding = True
+        task.step(_nav(frame, *stem.hold_ne, 0.0, 0.0), 0.1)  # on the circle
+        stem.lost = True  # e.g. ran up the current
+        task.step(_nav(frame, -2.8, 2.9, 0.0, 1.0), 0.1)
+        assert task.circling and task.tracker.lam == lam
 
 
 def test_hold_below_the_creep_does_not_wind_up_on_the_ferry_to_its_point() -> None:

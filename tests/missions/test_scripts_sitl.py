@@ -3,8 +3,8 @@ moving water (current, wind, waves: :data:`tests.missions.conftest.FLOOD`), each
 outcome the issue names, from its JSON summary and, for the samples, from the vehicle's own
 durable sample log (``usv samples export``).
 
-Figures measured on this SITL (seed 3, the flood of the conftest; vehicle seconds) where the
-chapter's criteria are not met today are in the xfail reasons: control in a current is issue 14.
+Figures measured on this SITL (seed 3, the flood of the conftest; vehicle seconds) are in the
+docstrings.
 """
 
 from __future__ import annotations
@@ -53,18 +53,12 @@ def test_rescue_launches_within_tolerance_and_tows_home(flood_sitl: FloodSitl, g
     assert status == 0 and s["ok"], output
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "control in a current (issue 14): Fig. 13 tracking error (distance from the 2 m commanded circle "
-    "while circling) per point in 0.5 m/s current, 5 m/s wind, Hs 0.3 m, this test's sequence (rescue, "
-    "then sampling) at 3ab42ad: 2.20/2.28/1.47/3.40 and 4.48/2.06/1.56/3.39 m (limit 1.2 m); the bottles "
-    "were filled within 2.5 m. A 2 m circle is out of the hull's reach on its downstream side in "
-    "0.5 m/s (docs/tuning.md, 'What the hull can circle in a current'). With USV_CIRC_HOLD_C 0.4 (opt-in "
-    "hold on the circle below the idle creep; f47aa00) the same sequence gave 0.47/0.50/0.50/0.47 and "
-    "0.47/0.49/0.49/0.55 m, the sampling script alone from rest after arming 3.62 and 1.75 m at its worst "
-    "point (seeds 21, 22); not the default: on the tuning grid it made the sampling circle's worst case "
-    "worse (7.39 -> 8.71 m), though its mean better (2.60 -> 2.48 m)"))
 def test_water_sampling_fills_four_bottles_inside_the_circles(flood_sitl: FloodSitl,
                                                               gcs: PymavlinkGcs) -> None:
+    """Fig. 13 in the flood, default parameters: the boat holds on each circle bow into the 0.5 m/s
+    current (``USV_CIRC_HOLD_C`` 0.4, below the idle creep), 0.42-0.70 m from the circle in two runs
+    of this sequence over MAVLink; circling (the default before) gave 1.47-4.48 m: a 2 m circle is
+    out of the hull's reach on its downstream side in 0.5 m/s (``docs/tuning.md``)."""
     status, s, output = run_script(flood_sitl, "water_sampling", "--figure", "fig13.png")
     assert s is not None, output
     assert (flood_sitl.work_dir / "fig13.png").stat().st_size > 10_000  # the chapter's Fig. 13

@@ -17,7 +17,8 @@ from companion.messages import BOTTLE_COUNT, NavState, Severity
 from companion.mission import validate as v
 from companion.mission.items import MissionItem
 from companion.modes.auto_items import AutoRun, NavItem, Phase
-from companion.modes.navigation import CircleTask, estimator_current
+from companion.modes.circle_item import CircleTask
+from companion.modes.navigation import estimator_current
 from companion.payloads.mission_checks import check_coordinates, in_range, is_default, param_range
 from companion.payloads.registry import PayloadEnv
 from companion.payloads.sampler.device import SampleJob, SampleRequest, WaterSampler
@@ -56,7 +57,9 @@ def start_sample(sampler: WaterSampler, env: PayloadEnv, request: SampleRequest)
 
 
 class SampleHereItem(NavItem):
-    """Go to the point, circle it, take one sample on the circle, go on when it is done."""
+    """Go to the point, circle it, take one sample on the circle, go on when it is done.  The item
+    has no direction: the boat circles the way its bow goes round the point when it starts circling
+    (after a hold on the circle given up, it would otherwise turn about, away from the circle)."""
 
     circles = True
 
@@ -70,7 +73,7 @@ class SampleHereItem(NavItem):
         params = self.run.host.params
         default_radius_m = params.get_or("USV_SMPL_CIRC_M", params.get("USV_TURN_RAD"))
         radius = self.item.param2 if self.item.param2 > 0 else default_radius_m
-        self.run.task = CircleTask(params, self.point, radius, drift=self.run.drift,
+        self.run.task = CircleTask(params, self.point, radius, clockwise=None, drift=self.run.drift,
                                    trials=self.run.host.station_trials,
                                    water_current=estimator_current(self.run.host))
         self.run.phase = Phase.ACTION
