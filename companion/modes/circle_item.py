@@ -55,7 +55,7 @@ class CircleTask:
         ``None``, used to choose between circling and holding on the circle while ``drift`` has
         not yet seen the boat steer in two directions (the first item after a straight leg).
         ``trials``: where holding bow into the current failed (:meth:`StemHold.when_needed`); a
-        hold the boat ran up the current from (``StemHold.ran_up``) is recorded there."""
+        hold given up after the boat reached it (``StemHold.failed_on_hold``) is recorded there."""
         self.frame = LocalFrame(*point)
         self.params = params
         self.drift = drift
@@ -110,7 +110,7 @@ class CircleTask:
             target = self.stem.step(pos, nav, dt_s)
             if not self.stem.lost:
                 return target
-            if self.stem.ran_up and self.trials is not None:
+            if self.stem.failed_on_hold and self.trials is not None:
                 self.trials.failed(self.stem.current_ne_mps, nav.t_s)
             retry = self.on_circle_since_s is None and not self._hold_retried
             log.warning("circle item: the hold given up %.1f m from its point on the circle (%s); %s",

@@ -101,10 +101,10 @@ CREEP_RUN_UP_MPS = 0.45
 CREEP_RUN_UP_S = 3.0
 """Below the idle creep a hold that has reached its point (as for :data:`CREEP_LOST_M`) is also
 given up when the boat runs up the current faster than CREEP_RUN_UP_MPS for CREEP_RUN_UP_S (net,
-leaky count), and the vehicle remembers the current (:attr:`StemHold.ran_up`): with wind against
-the current the idling boat ran up at 0.52-0.91 m/s on its hold (median), where holds that work
-crept 0.00-0.31 m/s (issue 15's flood, wind along or across the current; ``docs/tuning.md``), and
-was given up only 4 m off."""
+leaky count), and the vehicle remembers the current (:attr:`StemHold.failed_on_hold`): with wind
+against the current the idling boat ran up at 0.52-0.91 m/s on its hold (median), where holds that
+work crept 0.00-0.31 m/s (issue 15's flood, wind along or across the current;
+``docs/tuning.md``), and was given up only 4 m off."""
 
 
 class StemHold:
@@ -163,7 +163,7 @@ class StemHold:
         (:data:`CREEP_LOST_M`) or runs up the current (:data:`CREEP_RUN_UP_MPS`), above it when it
         has run up the current (:data:`STEM_RUN_UP_M`); either side of it when it never got near its
         point (:data:`CREEP_REACH_S`, :data:`STEM_REACH_S`)."""
-        self.ran_up = False
+        self.failed_on_hold = False
         """Given up after reaching the hold (below the idle creep: crept off or ran up; above it:
         ran up): the drift (current less the wind's push) is too weak to hold in, which the vehicle
         remembers."""
@@ -221,15 +221,16 @@ class StemHold:
         if self.below_creep and (off_m > (CREEP_LOST_M if reached else CREEP_RUNAWAY_M)
                                  or (not reached and self.keeper_s > CREEP_REACH_S)):
             self.lost = True
-            self.ran_up = reached
+            self.failed_on_hold = reached
         if not self.below_creep and not self.near_circle and self.keeper_s > STEM_REACH_S:
             self.lost = True
         if (not self.below_creep and not self.lost and reached
                 and -along_across_m(pos_ne, self.hold_ne, self.current_ne_mps)[0] > STEM_RUN_UP_M):
-            self.lost = self.ran_up = True
+            self.lost = self.failed_on_hold = True
         down_mps = downstream_speed_mps((nav.vel_north_mps, nav.vel_east_mps), self.current_ne_mps)
         if self.below_creep and reached and not self.lost:
-            self.lost = self.ran_up = self._run_up.add(down_mps < -CREEP_RUN_UP_MPS, dt_s) > CREEP_RUN_UP_S
+            running_up = self._run_up.add(down_mps < -CREEP_RUN_UP_MPS, dt_s) > CREEP_RUN_UP_S
+            self.lost = self.failed_on_hold = running_up
         out = self.keeper.update(pos_ne, self.current_ne_mps, dt_s)
         downstream_m = along_across_m(pos_ne, self.hold_ne, self.current_ne_mps)[0]
         heading, speed = self.turn.command(
