@@ -58,6 +58,10 @@ class CircleTracker:
         self.gains = gains or CircleGains()
         self.integral_m = 0.0
 
+    def set_clockwise(self, clockwise: bool) -> None:
+        """Circle clockwise (starboard turn) or anticlockwise from now on."""
+        self.lam = 1.0 if clockwise else -1.0
+
     def update(self, pos_ne: tuple[float, float], speed_mps: float, dt_s: float) -> CircleOutput:
         g = self.gains
         dn, de = pos_ne[0] - self.centre_ne[0], pos_ne[1] - self.centre_ne[1]

@@ -63,7 +63,8 @@ class CircleTask:
         self.trials = trials
         self.point = point
         self.radius_m = max(radius_m, params.get("USV_TURN_RAD"))
-        self.tracker = CircleTracker((0.0, 0.0), self.radius_m, clockwise is not False, circle_gains(params))
+        self.tracker = CircleTracker((0.0, 0.0), self.radius_m, clockwise is None or clockwise,
+                                     circle_gains(params))  # an open direction starts clockwise
         self.free_direction = clockwise is None
         """The item leaves the direction open: the boat circles the way its bow turns round the
         centre when it starts circling (:func:`circling_clockwise`)."""
@@ -131,7 +132,7 @@ class CircleTask:
 
     def _choose_direction(self, pos_ne: tuple[float, float], heading_rad: float) -> None:
         if self.free_direction:
-            self.tracker.lam = 1.0 if circling_clockwise(pos_ne, heading_rad) else -1.0
+            self.tracker.set_clockwise(circling_clockwise(pos_ne, heading_rad))
 
     def _current(self) -> tuple[tuple[float, float] | None, float]:
         """The current the hold would be flown on and the strength the circle-or-hold choice is
