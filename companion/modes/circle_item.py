@@ -32,6 +32,20 @@ drift only across the bow, can read under the threshold after a hold (``docs/tun
 DECIDE_OUTSIDE_M = 8.0
 """A circle item chooses between circling and holding on the circle until the boat is this close
 to the circle (the hold's route starts with a point up to this far out)."""
+REPLAN_TURN_RAD = math.radians(15.0)
+"""A hold still on its legs to the hold point is planned again from where the boat is when the
+current it is flown on has turned by more than this since it was planned: the first hold after
+arming is picked on an estimate still settling from the run-up (it read 110-125 deg for a drift
+toward 85-90 deg, and the creep up the current then ran through the circle's centre;
+``docs/tuning.md``) ...
+"""
+REPLAN_OUTSIDE_M = 5.0
+"""... only while the boat is more than this outside the circle and has not been on it (planned
+again 0.2 m inside, the route swept it 13 m off the circle) ..."""
+REPLAN_SIDE_RAD = math.radians(90.0)
+"""... and only as the same kind of hold (above or below the idle creep) with its hold point within
+this round the circle of the old one: a boat turned about close to the circle onto a new route
+swept through it (10 m)."""
 
 
 def circling_clockwise(pos_ne: tuple[float, float], heading_rad: float) -> bool:
@@ -107,6 +121,9 @@ class CircleTask:
             if self.stem is not None:
                 log.info("circle item: holding on the circle in a %.2f m/s current (%.1f m out)",
                          math.hypot(*self.stem.current_ne_mps), out.distance_m)
+        if (self.stem is not None and not self.stem.holding and self.on_circle_since_s is None
+                and out.distance_m > self.radius_m + REPLAN_OUTSIDE_M):
+            self._replan(pos, nav)
         if self.stem is not None:
             target = self.stem.step(pos, nav, dt_s)
             if not self.stem.lost:
@@ -129,6 +146,29 @@ class CircleTask:
         speed = self.approach_speed_mps if far else self.circle_speed_mps
         target = ControlTarget(out.course_rad, speed, out.course_rate_radps)
         return crabbed(target, nav, crab_feed_forward(self.params, self.drift))
+
+    def _replan(self, pos_ne: tuple[float, float], nav: NavState) -> None:
+        """Plan the hold again when its current has turned by more than :data:`REPLAN_TURN_RAD`."""
+        assert self.stem is not None
+        current, strength_mps = self._current()
+        if current is None or math.hypot(*current) == 0.0:
+            return
+        planned = self.stem.current_ne_mps
+        turned_rad = abs(wrap_pi(math.atan2(current[1], current[0]) - math.atan2(planned[1], planned[0])))
+        if turned_rad <= REPLAN_TURN_RAD:
+            return
+        stem = StemHold.when_needed(self.params, current, self.radius_m, pos_ne, nav.heading_rad,
+                                    strength_mps, (nav.vel_north_mps, nav.vel_east_mps))
+        if stem is not None and stem.below_creep == self.stem.below_creep and self._same_side(stem):
+            log.info("circle item: the hold planned again, its current turned %.0f deg",
+                     math.degrees(turned_rad))
+            self.stem = stem
+
+    def _same_side(self, stem: StemHold) -> bool:
+        """The new hold point within :data:`REPLAN_SIDE_RAD` round the centre of the old one."""
+        assert self.stem is not None
+        old, new = self.stem.hold_ne, stem.hold_ne
+        return abs(wrap_pi(math.atan2(new[1], new[0]) - math.atan2(old[1], old[0]))) <= REPLAN_SIDE_RAD
 
     def _choose_direction(self, pos_ne: tuple[float, float], heading_rad: float) -> None:
         if self.free_direction:

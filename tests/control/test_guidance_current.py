@@ -4,6 +4,7 @@ cannot circle in (issue 14)."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import pytest
 from hypothesis import example, given
@@ -698,3 +699,41 @@ def test_corner_starts_earlier_when_the_current_sets_the_boat_past_the_new_leg()
     assert drift_lead_m((50.0, 50.0), (0.0, 50.0), (0.0, 0.0), (0.0, 1.2), 3.0) == pytest.approx(0.0)
     # current toward west on the first corner: it sets the boat back from the new leg, turn later
     assert drift_lead_m(*east_leg, south_leg, (0.0, -0.5), 3.0) == pytest.approx(-1.5)
+
+
+def _latest(readings: list[tuple[float, float]]) -> Callable[[], tuple[float, float]]:
+    return lambda: readings[0]
+
+
+def test_hold_still_on_its_legs_is_planned_again_when_its_current_turns() -> None:
+    """The first hold after arming is picked on an estimate still settling from the run-up: a
+    hold whose current turns by more than 15 deg before the boat gets near the circle is planned
+    again on the new one (its hold point turns with it), but not within 5 m of the circle, not
+    on the other side of the circle and not as the other kind of hold."""
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    current = [(-0.2, 0.45)]  # read 114 deg during the run-up
+    task = CircleTask(ParamStore(all_param_defs()), point, 2.0, water_current=lambda: current[0])
+    task.step(_nav(frame, -14.0, 0.0, 3.0, 0.0), 0.1)
+    first = task.stem
+    assert first is not None and first.below_creep
+    current[0] = (-0.02, 0.5)  # settled: 92 deg
+    task.step(_nav(frame, -12.0, 1.0, 2.5, 1.0), 0.1)
+    stem = task.stem
+    assert stem is not None and stem is not first
+    assert stem.current_ne_mps == (-0.02, 0.5)
+    across_rad = math.atan2(stem.hold_ne[1], stem.hold_ne[0])  # 30 deg downstream of across
+    assert math.degrees(across_rad) == pytest.approx(182.3 - 30.0, abs=1.0)
+    current[0] = (0.2, 0.45)  # another 26 deg, but the boat is 4 m outside the circle
+    task.step(_nav(frame, -6.0, 0.0, 2.5, 1.0), 0.1)
+    assert task.stem is stem
+    for turned, why in (((0.5, 0.05), "the other side of the circle"), ((0.15, 0.2), "too weak to hold"),
+                        ((0.45, 1.1), "above the idle creep")):
+        reading = [(0.0, 0.5)]
+        again = CircleTask(ParamStore(all_param_defs()), point, 2.0, water_current=_latest(reading))
+        again.step(_nav(frame, -14.0, -3.0, 3.0, 0.0), 0.1)
+        kept = again.stem
+        assert kept is not None and kept.below_creep
+        reading[0] = turned
+        again.step(_nav(frame, -13.0, -3.0, 3.0, 0.0), 0.1)
+        assert again.stem is kept, why
