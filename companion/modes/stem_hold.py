@@ -96,7 +96,10 @@ CREEP_RUNAWAY_M = 20.0
 CREEP_REACH_S = 60.0
 """... or this long after the keeper took over (without its integral the keeper can leave the boat
 at idle where creep, current and wind cancel: on the flood's tuning seeds 22/23 a retried first
-hold sat there 475 s and 900+ s and the bottle never filled)."""
+hold sat there 475 s and 900+ s and the bottle never filled).  The same when the boat has stood on
+its hold point but never within :data:`STEM_NEAR_CIRCLE_M` outside the circle: on the flood's seed
+19 the keeper held it 0.65 m off its point, 1 m outside the circle, for 900 s and the bottle never
+filled.  Not remembered as a failed hold: holding itself worked."""
 CREEP_RUN_UP_MPS = 0.45
 CREEP_RUN_UP_S = 3.0
 """Below the idle creep a hold that has reached its point (as for :data:`CREEP_LOST_M`) is also
@@ -161,8 +164,9 @@ class StemHold:
         self.lost = False
         """Set when the hold is given up for circling: below the idle creep when it has crept off
         (:data:`CREEP_LOST_M`) or runs up the current (:data:`CREEP_RUN_UP_MPS`), above it when it
-        has run up the current (:data:`STEM_RUN_UP_M`); either side of it when it never got near its
-        point (:data:`CREEP_REACH_S`, :data:`STEM_REACH_S`)."""
+        has run up the current (:data:`STEM_RUN_UP_M`); either side of it when the boat has not come
+        near the circle a minute after the keeper took over (:data:`CREEP_REACH_S`,
+        :data:`STEM_REACH_S`)."""
         self.failed_on_hold = False
         """Given up after reaching the hold (below the idle creep: crept off or ran up; above it:
         ran up): the drift (current less the wind's push) is too weak to hold in, which the vehicle
@@ -222,8 +226,8 @@ class StemHold:
                                  or (not reached and self.keeper_s > CREEP_REACH_S)):
             self.lost = True
             self.failed_on_hold = reached
-        if not self.below_creep and not self.near_circle and self.keeper_s > STEM_REACH_S:
-            self.lost = True
+        if not self.near_circle and self.keeper_s > (CREEP_REACH_S if self.below_creep else STEM_REACH_S):
+            self.lost = True  # below the creep too when on the hold point: held off the circle
         if (not self.below_creep and not self.lost and reached
                 and -along_across_m(pos_ne, self.hold_ne, self.current_ne_mps)[0] > STEM_RUN_UP_M):
             self.lost = self.failed_on_hold = True

@@ -533,6 +533,32 @@ def test_hold_below_the_creep_that_never_reaches_its_point_is_given_up_after_a_m
     _stall_twice_then_circle(task, frame, below_creep=True)
 
 
+def test_hold_below_the_creep_held_off_the_circle_on_its_point_is_given_up_after_a_minute() -> None:
+    """The keeper (no integral below the creep) can hold the boat still on its hold point but 1 m
+    outside the circle, where the item never counts it on the circle and the bottle never fills:
+    after 60 s it is flown once more, then the item circles.  Holding worked, so the current is
+    not recorded as one the boat cannot hold in."""
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    trials = StationTrials()
+    task = CircleTask(_creep_params(0.4), point, 2.0, water_current=lambda: (0.0, 0.5), trials=trials)
+    task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+    for _attempt in range(2):  # never on the circle: flown once more, as any hold that stalls
+        stem = task.stem
+        assert stem is not None and stem.below_creep
+        stem.holding = True  # as if the legs were done
+        scale = 3.0 / math.hypot(*stem.hold_ne)  # 0.65 m off the hold point, radially out
+        off_circle = _nav(frame, stem.hold_ne[0] * scale, stem.hold_ne[1] * scale, 0.0, 0.0)
+        for _ in range(590):
+            task.step(off_circle, 0.1)
+        assert task.stem is stem and stem.on_hold and not stem.near_circle
+        for _ in range(20):
+            task.step(off_circle, 0.1)
+        assert task.stem is not stem
+    assert task.stem is None and task.circling
+    assert not trials.ruled_out((0.0, 0.5), 100.0)
+
+
 def test_hold_above_the_creep_that_never_gets_near_the_circle_is_given_up_after_a_minute() -> None:
     """0.8 m/s (above the idle creep) with wind against it: the keeper stalls 3 m off its hold
     point, 2.5 m or more outside the circle, and the bottle would never fill.  After 60 s the hold
