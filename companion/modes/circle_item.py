@@ -25,6 +25,10 @@ log = logging.getLogger(__name__)
 ESTIMATE_AGREE_MPS = 0.15
 """The estimator's current counts for the choice when it is within this of the observer's on every
 axis the observer has seen (:meth:`~companion.guidance.current.CurrentObserver.agrees`)."""
+ESTIMATE_AGREE_RAD = math.radians(25.0)
+"""... or, once the observer has converged, when the two point within this of each other: after the
+first hold the observer read 0.24-0.35 m/s where the estimator read 0.45-0.55 m/s, 10 deg apart, in
+issue 15's 0.5 m/s flood, and the boat circled the second point in it (6-15 m; ``docs/tuning.md``)."""
 ESTIMATE_STRONG_MARGIN_MPS = 0.3
 """The estimator's current picks the hold on its own when it is at least this above
 ``USV_CIRC_HOLD_C``: wind can cancel that much of it only rarely, and the observer, which learns the
@@ -46,6 +50,15 @@ REPLAN_SIDE_RAD = math.radians(90.0)
 """... and only as the same kind of hold (above or below the idle creep) with its hold point within
 this round the circle of the old one: a boat turned about close to the circle onto a new route
 swept through it (10 m)."""
+
+
+def _same_direction(observed_ne_mps: tuple[float, float] | None,
+                    estimated_ne_mps: tuple[float, float]) -> bool:
+    """Both currents known and within :data:`ESTIMATE_AGREE_RAD` of each other in direction."""
+    if observed_ne_mps is None or 0.0 in (math.hypot(*observed_ne_mps), math.hypot(*estimated_ne_mps)):
+        return False
+    return abs(wrap_pi(math.atan2(observed_ne_mps[1], observed_ne_mps[0])
+                       - math.atan2(estimated_ne_mps[1], estimated_ne_mps[0]))) <= ESTIMATE_AGREE_RAD
 
 
 def circling_clockwise(pos_ne: tuple[float, float], heading_rad: float) -> bool:
@@ -178,9 +191,10 @@ class CircleTask:
         """The current the hold would be flown on and the strength the circle-or-hold choice is
         made on.  The current: the observer's once it has converged (it includes the wind's leeway),
         else the estimator's if it agrees within :data:`ESTIMATE_AGREE_MPS` with what the observer
-        has seen (10 s after arming the estimator read 128 deg for a current toward 90), else
-        ``None``.  The strength: the stronger of the two (the observer's, time constant 6 s, read
-        0.3-0.4 m/s at times in 0.5 m/s).  The estimator counts only below the idle creep
+        has seen, or within :data:`ESTIMATE_AGREE_RAD` in direction with the converged observer's
+        (10 s after arming the estimator read 128 deg for a current toward 90), else ``None``.  The
+        strength: the stronger of the two (the observer's, time constant 6 s, read 0.3-0.4 m/s at
+        times in 0.5 m/s).  The estimator counts only below the idle creep
         (``USV_HOLD_CREEP``): the hold that stems a stronger current is chosen on the observer alone,
         as before (in 0.8 m/s against 5 m/s of wind the estimator's 0.8 m/s, which has no leeway,
         picked it at the first point and the boat never got onto the circle in 900 s), unless it is
@@ -190,7 +204,8 @@ class CircleTask:
         raw = estimated = self.water_current() if self.water_current is not None else None
         if estimated is not None and (
                 math.hypot(*estimated) >= self.params.get_or("USV_HOLD_CREEP", 0.0)
-                or (self.drift is not None and not self.drift.agrees(estimated, ESTIMATE_AGREE_MPS))):
+                or (self.drift is not None and not self.drift.agrees(estimated, ESTIMATE_AGREE_MPS)
+                    and not _same_direction(observed, estimated))):
             estimated = None
         strength = max((math.hypot(*c) for c in (observed, estimated) if c is not None), default=0.0)
         strong_mps = self.params.get_or("USV_CIRC_HOLD_C", 0.0) + ESTIMATE_STRONG_MARGIN_MPS

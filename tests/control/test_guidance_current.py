@@ -155,6 +155,25 @@ def test_circle_item_picks_the_hold_from_the_estimator_before_the_observer_has_c
     assert after_hold.stem.current_ne_mps == pytest.approx(weak_reading.current_ne_mps)  # the drift it sees
 
 
+def test_circle_item_holds_when_the_observer_reads_the_current_weak_but_in_the_estimators_direction() -> None:
+    """After the first hold the converged observer read 0.24-0.35 m/s where the estimator read
+    0.45-0.55 m/s 10 deg away (issue 15's 0.5 m/s flood), and the boat circled the next point in
+    the current: the estimator now counts when the two point the same way (within 25 deg); the hold
+    is flown on the observer's current (the drift it sees).  Pointing 60 deg apart, it does not."""
+    obs = _observer_after_two_legs((0.05, 0.3))
+    assert obs.converged
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    for estimate, holds in (((-0.05, 0.5), True), ((0.43, 0.25), False)):
+        task = CircleTask(ParamStore(all_param_defs()), point, 2.0, drift=obs,
+                          water_current=_latest([estimate]))
+        task.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
+        assert (task.stem is not None) is holds, estimate
+        if task.stem is not None:
+            assert task.stem.current_ne_mps == pytest.approx(obs.current_ne_mps)
+            assert task.stem.below_creep
+
+
 def test_circle_item_keeps_circling_once_on_the_circle_when_the_estimate_arrives_late() -> None:
     """A hold picked in the middle of a lap swept the boat 9 m off the circle: the choice is made
     before the boat reaches the circle and not revisited."""
