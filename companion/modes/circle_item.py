@@ -37,8 +37,9 @@ DECIDE_OUTSIDE_M = 8.0
 """A circle item chooses between circling and holding on the circle until the boat is this close
 to the circle (the hold's route starts with a point up to this far out)."""
 REPLAN_TURN_RAD = math.radians(15.0)
-"""A hold still on its legs to the hold point is planned again from where the boat is when the
-current it is flown on has turned by more than this since it was planned: the first hold after
+"""A hold the boat has not yet reached (its point or the circle; on its legs, or under the keeper
+on the way up the current) is planned again from where the boat is when the current it is flown on
+has turned by more than this since it was planned: the first hold after
 arming is picked on an estimate still settling from the run-up (it read 110-125 deg for a drift
 toward 85-90 deg, and the creep up the current then ran through the circle's centre;
 ``docs/tuning.md``) ...
@@ -134,7 +135,8 @@ class CircleTask:
             if self.stem is not None:
                 log.info("circle item: holding on the circle in a %.2f m/s current (%.1f m out)",
                          math.hypot(*self.stem.current_ne_mps), out.distance_m)
-        if (self.stem is not None and not self.stem.holding and self.on_circle_since_s is None
+        if (self.stem is not None and not (self.stem.on_hold or self.stem.near_circle)
+                and self.on_circle_since_s is None
                 and out.distance_m > self.radius_m + REPLAN_OUTSIDE_M):
             self._replan(pos, nav)
         if self.stem is not None:

@@ -750,11 +750,11 @@ def _latest(readings: list[tuple[float, float]]) -> Callable[[], tuple[float, fl
     return lambda: readings[0]
 
 
-def test_hold_still_on_its_legs_is_planned_again_when_its_current_turns() -> None:
+def test_hold_not_yet_reached_is_planned_again_when_its_current_turns() -> None:
     """The first hold after arming is picked on an estimate still settling from the run-up: a
-    hold whose current turns by more than 15 deg before the boat gets near the circle is planned
-    again on the new one (its hold point turns with it), but not within 5 m of the circle, not
-    on the other side of the circle and not as the other kind of hold."""
+    hold whose current turns by more than 15 deg before the boat gets to it is planned again on
+    the new one (its hold point turns with it), but not within 5 m of the circle, not on the other
+    side of the circle and not as the other kind of hold."""
     point = (41.77, 123.43)
     frame = LocalFrame(*point)
     current = [(-0.2, 0.45)]  # read 114 deg during the run-up
@@ -769,7 +769,12 @@ def test_hold_still_on_its_legs_is_planned_again_when_its_current_turns() -> Non
     assert stem.current_ne_mps == (-0.02, 0.5)
     across_rad = math.atan2(stem.hold_ne[1], stem.hold_ne[0])  # 30 deg downstream of across
     assert math.degrees(across_rad) == pytest.approx(182.3 - 30.0, abs=1.0)
-    current[0] = (0.2, 0.45)  # another 26 deg, but the boat is 4 m outside the circle
+    stem.holding = True  # the keeper on the way up the current: not there yet, planned again too
+    current[0] = (0.2, 0.45)  # another 26 deg
+    task.step(_nav(frame, -12.0, 1.0, 2.5, 1.0), 0.1)
+    assert task.stem is not stem and task.stem is not None
+    stem = task.stem
+    current[0] = (-0.02, 0.5)  # back by 26 deg, but the boat is 4 m outside the circle
     task.step(_nav(frame, -6.0, 0.0, 2.5, 1.0), 0.1)
     assert task.stem is stem
     for turned, why in (((0.5, 0.05), "the other side of the circle"), ((0.15, 0.2), "too weak to hold"),
