@@ -39,11 +39,9 @@ to the circle (the hold's route starts with a point up to this far out)."""
 REPLAN_TURN_RAD = math.radians(15.0)
 """A hold the boat has not yet reached (its point or the circle; on its legs, or under the keeper
 on the way up the current) is planned again from where the boat is when the current it is flown on
-has turned by more than this since it was planned: the first hold after
-arming is picked on an estimate still settling from the run-up (it read 110-125 deg for a drift
-toward 85-90 deg, and the creep up the current then ran through the circle's centre;
-``docs/tuning.md``) ...
-"""
+has turned by more than this since it was planned: the first hold after arming is picked on an
+estimate still settling from the run-up (it read 110-125 deg for a drift toward 85-90 deg, and the
+creep up the current then ran through the circle's centre; ``docs/tuning.md``) ..."""
 REPLAN_OUTSIDE_M = 5.0
 """... only while the boat is more than this outside the circle and has not been on it (planned
 again 0.2 m inside, the route swept it 13 m off the circle) ..."""
@@ -163,7 +161,9 @@ class CircleTask:
         return crabbed(target, nav, crab_feed_forward(self.params, self.drift))
 
     def _replan(self, pos_ne: tuple[float, float], nav: NavState) -> None:
-        """Plan the hold again when its current has turned by more than :data:`REPLAN_TURN_RAD`."""
+        """Plan the hold again when its current has turned by more than :data:`REPLAN_TURN_RAD`,
+        as the same kind of hold on the same side of the circle (:data:`REPLAN_SIDE_RAD`); the
+        caller checks the boat is not yet there (:data:`REPLAN_OUTSIDE_M`)."""
         assert self.stem is not None
         current, strength_mps = self._current()
         if current is None or math.hypot(*current) == 0.0:

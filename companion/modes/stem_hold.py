@@ -222,12 +222,11 @@ class StemHold:
         self.on_hold = self.on_hold or off_m < CREEP_ON_HOLD_M
         self.near_circle = self.near_circle or math.hypot(*pos_ne) <= self.radius_m + STEM_NEAR_CIRCLE_M
         reached = self.on_hold or self.near_circle
-        if self.below_creep and (off_m > (CREEP_LOST_M if reached else CREEP_RUNAWAY_M)
-                                 or (not reached and self.keeper_s > CREEP_REACH_S)):
+        if self.below_creep and off_m > (CREEP_LOST_M if reached else CREEP_RUNAWAY_M):
             self.lost = True
             self.failed_on_hold = reached
         if not self.near_circle and self.keeper_s > (CREEP_REACH_S if self.below_creep else STEM_REACH_S):
-            self.lost = True  # below the creep too when on the hold point: held off the circle
+            self.lost = True  # never near the circle (below the creep: also when on the hold point)
         if (not self.below_creep and not self.lost and reached
                 and -along_across_m(pos_ne, self.hold_ne, self.current_ne_mps)[0] > STEM_RUN_UP_M):
             self.lost = self.failed_on_hold = True
