@@ -26,3 +26,8 @@ def current_along_mps(heading_rad: float, current_ne_mps: tuple[float, float] | 
 def upstream_rad(current_ne_mps: tuple[float, float]) -> float:
     """The heading straight into the current ``(north, east)`` m/s (bow upstream)."""
     return math.atan2(-current_ne_mps[1], -current_ne_mps[0])
+
+
+def angle_between_rad(a_ne: tuple[float, float], b_ne: tuple[float, float]) -> float:
+    """The angle (0..pi) between two (north, east) vectors' directions."""
+    return abs(wrap_pi(math.atan2(a_ne[1], a_ne[0]) - math.atan2(b_ne[1], b_ne[0])))

@@ -8,6 +8,7 @@ import logging
 import math
 from collections.abc import Callable
 
+from companion.angles import angle_between_rad
 from companion.control.target import ControlTarget
 from companion.guidance.circle import CircleTracker
 from companion.guidance.current import CurrentObserver
@@ -56,8 +57,7 @@ def _same_direction(observed_ne_mps: tuple[float, float] | None,
     """Both currents known and within :data:`ESTIMATE_AGREE_RAD` of each other in direction."""
     if observed_ne_mps is None or 0.0 in (math.hypot(*observed_ne_mps), math.hypot(*estimated_ne_mps)):
         return False
-    return abs(wrap_pi(math.atan2(observed_ne_mps[1], observed_ne_mps[0])
-                       - math.atan2(estimated_ne_mps[1], estimated_ne_mps[0]))) <= ESTIMATE_AGREE_RAD
+    return angle_between_rad(observed_ne_mps, estimated_ne_mps) <= ESTIMATE_AGREE_RAD
 
 
 def circling_clockwise(pos_ne: tuple[float, float], heading_rad: float) -> bool:
@@ -168,8 +168,7 @@ class CircleTask:
         current, strength_mps = self._current()
         if current is None or math.hypot(*current) == 0.0:
             return
-        planned = self.stem.current_ne_mps
-        turned_rad = abs(wrap_pi(math.atan2(current[1], current[0]) - math.atan2(planned[1], planned[0])))
+        turned_rad = angle_between_rad(current, self.stem.current_ne_mps)
         if turned_rad <= REPLAN_TURN_RAD:
             return
         stem = StemHold.when_needed(self.params, current, self.radius_m, pos_ne, nav.heading_rad,
@@ -182,8 +181,7 @@ class CircleTask:
     def _same_side(self, stem: StemHold) -> bool:
         """The new hold point within :data:`REPLAN_SIDE_RAD` round the centre of the old one."""
         assert self.stem is not None
-        old, new = self.stem.hold_ne, stem.hold_ne
-        return abs(wrap_pi(math.atan2(new[1], new[0]) - math.atan2(old[1], old[0]))) <= REPLAN_SIDE_RAD
+        return angle_between_rad(stem.hold_ne, self.stem.hold_ne) <= REPLAN_SIDE_RAD
 
     def _choose_direction(self, pos_ne: tuple[float, float], heading_rad: float) -> None:
         if self.free_direction:
