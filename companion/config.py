@@ -261,8 +261,9 @@ SETTINGS: tuple[Setting, ...] = (
             choices=("chapter", "identified")),
     Setting("models.ukf", "chapter",
             "Active-model UKF: 'chapter' (Eq. 5-11 on over-ground velocities, the default) or 'current' "
-            "(water-relative model with the current as two more states, R from the sensor; publishes the "
-            "current estimate on topic 'water_current').", choices=("chapter", "current")),
+            "(the qLPV model on water-relative velocities with the current as two more states, R from the "
+            "sensor; the active-model law then evaluates the model on water-relative velocities too; "
+            "publishes the current estimate on topic 'water_current').", choices=("chapter", "current")),
     Setting("models.current_estimator", "ukf",
             "Water-current estimate for guidance and the ground station when models.ukf is 'chapter': 'ukf' "
             "(the default: the current-augmented filter runs beside the chapter's, for the current only; "

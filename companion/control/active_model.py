@@ -51,10 +51,23 @@ zero every wave's yaw put the nozzle at its stop and the yaw priority held the t
 so the boat reached its point at 2.5 m/s.  Slowing down for a corner keeps the full priority: the
 turn that follows needs it.
 
-The qLPV model is evaluated on over-ground velocities, and near standstill in a current those
-are mostly drift (the hull's sway and yaw terms then change with every heading change faster
-than the UKF follows).  So station keeping runs the PID family unless ``USV_STN_CTRL`` is 1
-(:mod:`companion.control.system`); this law is for making way.  The measurements behind these
+Water-relative model (issue 14).  When the UKF estimates the current with the model error (the
+current-augmented filter, ``models.ukf = "current"``), its delta_nu is the error of the model run
+on the velocity through the water, and so is this law's model: Eq. 3-4 are evaluated on
+
+    nu_r = nu - R(psi)^T [V_cN, V_cE, 0]^T      (the estimator's current, ``current``)
+
+and the thrust map on the surge through the water (the jet's inflow).  On over-ground velocities
+a cross-current reads as sway, whose coupling into yaw changes with every heading change: across
+a 1.2 m/s current the heading, the crab and the course swung +-10-17 deg and the boat snaked
+0.8-0.9 m off its leg; on water-relative velocities it holds the line (``docs/tuning.md``).  With
+the chapter's filter (the default, delta_nu over the ground) the law stays on over-ground
+velocities, the pair the chapter flies; the water-relative pair is not the default because the
+current filter's delta_nu follows only what persists for many seconds, so the model's own error
+in tight turns and at high speed through the water goes uncorrected (arrivals and sampling circles
+measured worse).  Near standstill in a current the law lets the boat wander, so station keeping
+runs the PID family unless ``USV_STN_CTRL`` is 1 (:mod:`companion.control.system`); this law is
+for making way.  The measurements behind these
 choices are in ``docs/tuning.md``; the current figures in ``usv bench`` (``control``).
 """
 
@@ -129,12 +142,17 @@ class ActiveModelController:
     name = "active_model"
 
     def __init__(self, model: QLPVModel, cfg: ActiveModelConfig | None = None,
-                 delta_nu: DeltaNuSource | None = None, current: CurrentSource | None = None) -> None:
+                 delta_nu: DeltaNuSource | None = None, current: CurrentSource | None = None,
+                 water_relative: bool = False) -> None:
+        """``water_relative``: ``delta_nu`` is the error of the model on the velocity through the
+        water (the current-augmented filter), so the model is evaluated there too, with
+        ``current`` (module docstring)."""
         self.model = model
         self.cfg = cfg or ActiveModelConfig()
         self.delta_nu_source = delta_nu
         self.current_source = current
         """The water current that gives the commanded speed through the water (module docstring)."""
+        self.water_relative = water_relative
         self.crab = CrabEstimator(self.cfg.heading.crab_tau_s)
         b = model.b_matrix()
         self._b_u = float(b[0, 1])
@@ -155,6 +173,16 @@ class ActiveModelController:
         self.speed_law.reset()
         self._last_rd = None
         self._rd_dot_lp.value = 0.0
+
+    def _body_current_mps(self, nav: NavState) -> tuple[float, float]:
+        """The current in the body frame, ``R(psi)^T V_c`` (surge, sway m/s): what is taken off the
+        velocity over ground to get the one through the water; (0, 0) unless the law is
+        ``water_relative`` and an estimate is fresh."""
+        current = self.current_source() if self.water_relative and self.current_source is not None else None
+        if current is None:
+            return 0.0, 0.0
+        c, s = math.cos(nav.heading_rad), math.sin(nav.heading_rad)
+        return current[0] * c + current[1] * s, -current[0] * s + current[1] * c
 
     def _update_model_error(self, dt_s: float) -> None:
         """Take the UKF's latest delta_nu (kept as it was when none or not finite; zero when
@@ -211,12 +239,13 @@ class ActiveModelController:
         return target.speed_mps - current_along_mps(nav.heading_rad, current)
 
     def _allocate_near_standstill(self, w_sin: float, w_cos: float, nav: NavState, target: ControlTarget,
-                                  e_psi: float, r_d: float, capped: bool = True) -> tuple[float, float]:
+                                  e_psi: float, r_d: float, u_water_mps: float,
+                                  capped: bool = True) -> tuple[float, float]:
         """:meth:`_allocate` below ``turn_boost_speed_mps``: the nozzle is solved against at least
         the thrust of ``yaw_inversion_min_throttle``, and the yaw row's extra thrust at the nozzle
         limit is scaled by the turn asked for and, when ``capped``, capped (module docstring)."""
         c = self.cfg
-        floor = float(self.model.thrust(c.yaw_inversion_min_throttle, nav.u_mps))
+        floor = float(self.model.thrust(c.yaw_inversion_min_throttle, u_water_mps))
         delta = math.atan2(w_sin, max(w_cos, floor))
         surge_only = max(w_cos, 0.0)
         if abs(delta) <= c.nozzle_max_rad:
@@ -227,7 +256,7 @@ class ActiveModelController:
         thrust = surge_only + self._turn_intent(e_psi, r_d) * (yaw_priority - surge_only)
         if not capped:
             return delta, thrust
-        cap = float(self.model.thrust(self._turn_throttle_cap(target.course_rate_radps), nav.u_mps))
+        cap = float(self.model.thrust(self._turn_throttle_cap(target.course_rate_radps), u_water_mps))
         return delta, min(thrust, max(surge_only, cap))
 
     def update(self, nav: NavState, target: ControlTarget, dt_s: float, sat: Saturation) -> ControlOutput:
@@ -236,7 +265,9 @@ class ActiveModelController:
         psi_d = self.crab.heading_command(target)
         e_psi = wrap_pi(psi_d - nav.heading_rad)
         r_d = desired_turn_rate(c.heading, e_psi, target.course_rate_radps, nav.u_mps)
-        nu = np.array([nav.u_mps, nav.v_mps, nav.r_radps])
+        u_c, v_c = self._body_current_mps(nav)
+        u_water = nav.u_mps - u_c
+        nu = np.array([u_water, nav.v_mps - v_c, nav.r_radps])  # nu_r (nu without a current)
         f = self.model.a_of_nu(nu) @ nu
         self._update_model_error(dt_s)
         r_dot_d = c.rate_k_per_s * (r_d - nav.r_radps) + self._rd_dot(r_d, dt_s)
@@ -246,9 +277,9 @@ class ActiveModelController:
         stopping = target.stopping and nav.u_mps > target.speed_mps + c.speed.brake_deadband_mps
         if (slow_over_ground or stopping
                 or self._commanded_water_speed_mps(nav, target) < c.turn_boost_speed_mps):
-            delta, thrust = self._allocate_near_standstill(w_sin, w_cos, nav, target, e_psi, r_d,
+            delta, thrust = self._allocate_near_standstill(w_sin, w_cos, nav, target, e_psi, r_d, u_water,
                                                            capped=slow_over_ground)
         else:
             delta, thrust = self._allocate(w_sin, w_cos)
-        throttle = throttle_for_thrust(self.model, thrust, nav.u_mps)
+        throttle = throttle_for_thrust(self.model, thrust, u_water)
         return ControlOutput(nozzle_rad=delta, throttle=min(1.0, throttle), heading_cmd_rad=psi_d)

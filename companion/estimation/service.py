@@ -7,15 +7,16 @@ of Eq. 5-11 on them.  Every navigation sample, :meth:`EstimatorStage.step` takes
 z = [u, v, r] from the NavState and the input last applied (the pipeline's previous
 :class:`~companion.messages.ActuatorCommand`: throttle, nozzle_rad), runs one predict+update and
 returns the :class:`~companion.messages.ModelError` estimate.  The setting ``models.ukf`` picks
-the filter: "chapter" (Eq. 5-11 as published) or "current" (the current-augmented filter of
-:mod:`companion.models.current_ukf`, which also leaves a
+the filter: "chapter" (Eq. 5-11 as published, on over-ground velocities) or "current" (the
+current-augmented filter of :mod:`companion.models.current_ukf`, which also leaves a
 :class:`~companion.messages.CurrentEstimate` in :attr:`EstimatorStage.current` and needs the
-heading); ``models.ukf_backend`` picks who computes it ("native" or the "filterpy" reference).
-With the chapter filter, ``models.current_estimator`` "ukf" (the default) runs the
-current-augmented filter beside it only for the current estimate: the controller keeps the
-chapter's delta_nu (measured on the product, ``docs/tuning.md``: the current filter's delta_nu in
-the active-model law, which evaluates the model on over-ground velocities, made the AUTO square's
-mid-leg cross-track RMS 2.05 m instead of 0.56 m in a 1.2 m/s current), guidance gets the current.
+heading; its delta_nu is the error of the model on the velocity through the water, so the
+active-model law then evaluates the model there too, :attr:`EstimatorStage.water_relative`);
+``models.ukf_backend`` picks who computes it ("native" or the "filterpy" reference).  With the
+chapter filter, ``models.current_estimator`` "ukf" (the default) runs the current-augmented
+filter beside it only for the current estimate: the controller keeps the chapter's delta_nu on
+over-ground velocities, guidance gets the current (the water-relative pair measured better on
+legs and LOITER but worse on arrivals and sampling circles, ``docs/tuning.md``).
 A non-finite or out-of-order sample is skipped (``None``, logged once), never raised.
 """
 
@@ -134,6 +135,12 @@ class EstimatorStage:
         """The water current of the last step (a current-augmented filter only; else ``None``)."""
         self._t_last: float | None = None
         self._warned = False
+
+    @property
+    def water_relative(self) -> bool:
+        """Whether delta_nu is the error of the model on the velocity through the water (the main
+        filter is the current-augmented one), which the controller then evaluates there too."""
+        return self.ukf.n == 8
 
     def warm_up(self) -> None:
         """Run a throwaway filter for two samples, so the compiled step is loaded (numba) now

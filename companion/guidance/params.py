@@ -27,7 +27,10 @@ PARAMS: tuple[ParamDef, ...] = (
     ParamDef("USV_LOS_DGAM", 1.0, 0.0, 100.0, "1/m^2",
              "How fast the look-ahead shrinks from USV_LOS_DELTA to USV_LOS_DMIN with the cross-track error "
              "(exp(-gamma y_e^2))."),
-    ParamDef("USV_LOS_KI", 0.04, 0.0, 1.0, "1/m", "ILOS integral gain Ki."),
+    ParamDef("USV_LOS_KI", 0.04, 0.0, 1.0, "1/m",
+             "ILOS integral gain Ki. With models.ukf = 'current' (the law on water-relative velocities) 0 "
+             "flies the legs closer: the course loop removes the measured crab, and an integral wound up on "
+             "each corner's overshoot held the boat 0.2-0.4 m off the next leg (docs/tuning.md)."),
     ParamDef("USV_ALOS_GAMMA", 0.002, 0.0, 0.1, "rad/(m s)", "ALOS crab-angle adaptation gain gamma."),
     ParamDef("USV_LOS_CFF", 0, 0, 1, "",
              "Crab feed-forward: 1 = steer legs and circles at the heading that makes good the desired "
