@@ -64,10 +64,10 @@ a 1.2 m/s current the heading, the crab and the course swung +-10-17 deg and the
 the chapter's filter (the default, delta_nu over the ground) the law stays on over-ground
 velocities, the pair the chapter flies; the water-relative pair is not the default because the
 current filter's delta_nu follows only what persists for many seconds, so the model's own error
-in tight turns and at high speed through the water goes uncorrected (arrivals and sampling circles
-measured worse).  Near standstill in a current the law lets the boat wander, so station keeping
-runs the PID family unless ``USV_STN_CTRL`` is 1 (:mod:`companion.control.system`); this law is
-for making way.  The measurements behind these
+in tight turns and at high speed through the water goes uncorrected (arrivals measured worse, and
+two of the test suite's flights failed with it as the default).  Near standstill in a current the
+law lets the boat wander, so station keeping runs the PID family unless ``USV_STN_CTRL`` is 1
+(:mod:`companion.control.system`); this law is for making way.  The measurements behind these
 choices are in ``docs/tuning.md``; the current figures in ``usv bench`` (``control``).
 """
 

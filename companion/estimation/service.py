@@ -16,7 +16,7 @@ active-model law then evaluates the model there too, :attr:`EstimatorStage.water
 chapter filter, ``models.current_estimator`` "ukf" (the default) runs the current-augmented
 filter beside it only for the current estimate: the controller keeps the chapter's delta_nu on
 over-ground velocities, guidance gets the current (the water-relative pair measured better on
-legs and LOITER but worse on arrivals and sampling circles, ``docs/tuning.md``).
+legs and LOITER but worse on arrivals, ``docs/tuning.md``).
 A non-finite or out-of-order sample is skipped (``None``, logged once), never raised.
 """
 
