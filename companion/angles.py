@@ -18,9 +18,17 @@ def wrap_2pi(angle_rad: float) -> float:
 
 def current_along_mps(heading_rad: float, current_ne_mps: tuple[float, float] | None) -> float:
     """The current's component along the bow (m/s, positive from astern); 0 without an estimate."""
+    return current_body_mps(heading_rad, current_ne_mps)[0]
+
+
+def current_body_mps(heading_rad: float, current_ne_mps: tuple[float, float] | None) -> tuple[float, float]:
+    """``R(psi)^T V_c`` for one heading: the current along the bow (positive from astern) and across
+    it (positive toward starboard), m/s; (0, 0) without an estimate
+    (:func:`companion.models.current.current_body` does it for arrays of a log)."""
     if current_ne_mps is None:
-        return 0.0
-    return current_ne_mps[0] * math.cos(heading_rad) + current_ne_mps[1] * math.sin(heading_rad)
+        return 0.0, 0.0
+    c, s = math.cos(heading_rad), math.sin(heading_rad)
+    return current_ne_mps[0] * c + current_ne_mps[1] * s, -current_ne_mps[0] * s + current_ne_mps[1] * c
 
 
 def upstream_rad(current_ne_mps: tuple[float, float]) -> float:

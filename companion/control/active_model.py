@@ -79,7 +79,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from companion.angles import current_along_mps, wrap_pi
+from companion.angles import current_along_mps, current_body_mps, wrap_pi
 from companion.control.actuator import Saturation
 from companion.control.am_speed import AmSpeedConfig, AmSpeedLaw
 from companion.control.pid import LowPass
@@ -179,10 +179,7 @@ class ActiveModelController:
         velocity over ground to get the one through the water; (0, 0) unless the law is
         ``water_relative`` and an estimate is fresh."""
         current = self.current_source() if self.water_relative and self.current_source is not None else None
-        if current is None:
-            return 0.0, 0.0
-        c, s = math.cos(nav.heading_rad), math.sin(nav.heading_rad)
-        return current[0] * c + current[1] * s, -current[0] * s + current[1] * c
+        return current_body_mps(nav.heading_rad, current)
 
     def _update_model_error(self, dt_s: float) -> None:
         """Take the UKF's latest delta_nu (kept as it was when none or not finite; zero when
