@@ -133,7 +133,7 @@ class CircleTask:
             if self.stem is not None:
                 log.info("circle item: holding on the circle in a %.2f m/s current (%.1f m out)",
                          math.hypot(*self.stem.current_ne_mps), out.distance_m)
-        if (self.stem is not None and not (self.stem.on_hold or self.stem.near_circle)
+        if (self.stem is not None and not self.stem.reached
                 and self.on_circle_since_s is None
                 and out.distance_m > self.radius_m + REPLAN_OUTSIDE_M):
             self._replan(pos, nav)

@@ -173,6 +173,11 @@ class StemHold:
         remembers."""
         self._run_up = LeakyEvidence()
 
+    @property
+    def reached(self) -> bool:
+        """The boat has been on the hold point (:attr:`on_hold`) or near the circle (:attr:`near_circle`)."""
+        return self.on_hold or self.near_circle
+
     @classmethod
     def when_needed(cls, params: ParamStore, current_ne_mps: tuple[float, float] | None, radius_m: float,
                     pos_ne: tuple[float, float], heading_rad: float,
@@ -221,7 +226,7 @@ class StemHold:
         self.keeper_s += dt_s
         self.on_hold = self.on_hold or off_m < CREEP_ON_HOLD_M
         self.near_circle = self.near_circle or math.hypot(*pos_ne) <= self.radius_m + STEM_NEAR_CIRCLE_M
-        reached = self.on_hold or self.near_circle
+        reached = self.reached
         if self.below_creep and off_m > (CREEP_LOST_M if reached else CREEP_RUNAWAY_M):
             self.lost = True
             self.failed_on_hold = reached
