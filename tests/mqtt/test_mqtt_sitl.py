@@ -171,7 +171,7 @@ def _by_topic(msgs: list[dict[str, Any]], name: str) -> list[dict[str, Any]]:
 def test_telemetry_topics_validate_against_their_schemas_at_their_rates(boat: Boat) -> None:
     msgs = boat.dashboard.wait_for("10 simulated seconds of positions",
                                    lambda ms: len(_by_topic(ms, "usv/usv1/position")) >= 21, 60)
-    for name in ("position", "status", "link", "engine", "launcher", "sampler", "online"):
+    for name in ("position", "status", "link", "engine", "current", "launcher", "sampler", "online"):
         assert _by_topic(msgs, f"usv/usv1/{name}"), f"no {name} message"
     for m in msgs:
         key = schema_name(m["topic"])
