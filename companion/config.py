@@ -260,15 +260,17 @@ SETTINGS: tuple[Setting, ...] = (
             "(the [ukf] table 'usv identify' writes into params.toml; falls back to Eq. 13 without it).",
             choices=("chapter", "identified")),
     Setting("models.ukf", "chapter",
-            "Active-model UKF: 'chapter' (Eq. 5-11 on over-ground velocities, the default) or 'current' "
-            "(the qLPV model on water-relative velocities with the current as two more states, R from the "
-            "sensor; the active-model law then evaluates the model on water-relative velocities too; "
-            "publishes the current estimate on topic 'water_current').", choices=("chapter", "current")),
+            "Active-model UKF the controller flies on: 'chapter' (Eq. 5-11 on over-ground velocities, "
+            "Eq. 13's noise, the default) or 'current' (the qLPV model on water-relative velocities with "
+            "the current as two more states, R from the sensor, a fast surge model error; the active-model "
+            "law then evaluates the model on water-relative velocities too; set USV_LOS_KI 0 with it).",
+            choices=("chapter", "current")),
     Setting("models.current_estimator", "ukf",
-            "Water-current estimate for guidance and the ground station when models.ukf is 'chapter': 'ukf' "
-            "(the default: the current-augmented filter runs beside the chapter's, for the current only; "
-            "the controller keeps the chapter's model error) or 'none' (no estimate: LOITER, GUIDED and "
-            "RTL then hold as before issue 14).", choices=("ukf", "none")),
+            "Water-current estimate for guidance and the ground station (topic 'water_current'): 'ukf' "
+            "(the default: the current-augmented filter with slow model-error states runs beside the "
+            "controller's) or 'none' (no filter beside it: with models.ukf 'current' the controller "
+            "filter's own estimate; with 'chapter' no estimate, and LOITER, GUIDED and RTL hold as before "
+            "issue 14).", choices=("ukf", "none")),
     Setting("models.ukf_backend", "native",
             "Who computes the UKF: 'native' (compiled, a few microseconds per sample) or 'filterpy' "
             "(the same equations run by filterpy, about 100 times slower; a reference).",

@@ -161,6 +161,10 @@ class ModelError:
     delta_nu: tuple[float, float, float]
     delta_nu_var: tuple[float, float, float] = (0.0, 0.0, 0.0)
     innovation_nis: float = 0.0
+    water_ne_mps: tuple[float, float] | None = None
+    """The current (north, east m/s) this delta_nu was estimated against when it is the error of
+    the model on the velocity through the water (a current-augmented filter), else ``None``
+    (delta_nu over the ground, the chapter's filter)."""
 
 
 @dataclass(frozen=True, slots=True)

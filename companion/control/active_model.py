@@ -55,20 +55,23 @@ Water-relative model (issue 14).  When the UKF estimates the current with the mo
 current-augmented filter, ``models.ukf = "current"``), its delta_nu is the error of the model run
 on the velocity through the water, and so is this law's model: Eq. 3-4 are evaluated on
 
-    nu_r = nu - R(psi)^T [V_cN, V_cE, 0]^T      (the estimator's current, ``current``)
+    nu_r = nu - R(psi)^T [V_cN, V_cE, 0]^T      (the current delta_nu was estimated against,
+                                                ``model_current``)
 
 and the thrust map on the surge through the water (the jet's inflow).  On over-ground velocities
 a cross-current reads as sway, whose coupling into yaw changes with every heading change: across
 a 1.2 m/s current the heading, the crab and the course swung +-10-17 deg and the boat snaked
 0.8-0.9 m off its leg; on water-relative velocities it holds the line (``docs/tuning.md``).  With
 the chapter's filter (the default, delta_nu over the ground) the law stays on over-ground
-velocities, the pair the chapter flies; the water-relative pair is not the default because the
-current filter's delta_nu follows only what persists for many seconds, so the model's own error
-in tight turns and at high speed through the water goes uncorrected (arrivals measured worse, and
-two of the test suite's flights failed with it as the default).  Near standstill in a current the
-law lets the boat wander, so station keeping runs the PID family unless ``USV_STN_CTRL`` is 1
-(:mod:`companion.control.system`); this law is for making way.  The measurements behind these
-choices are in ``docs/tuning.md``; the current figures in ``usv bench`` (``control``).
+velocities, the pair the chapter flies.  The water-relative pair's filter has a fast surge model
+error (the identified surge row is far off at the water speeds a boat makes into a flood
+current) and slow yaw and sway ones; it is not the default because it settles onto a leg more
+slowly after a corner (the heading lags its command by 2-3 deg for seconds; the test suite's
+cross-current square: 0.57 m off mid-leg, 0.5 allowed) and measured no better on the arrivals
+and holds (``docs/tuning.md``).  Near standstill in a current the law lets the boat wander, so
+station keeping runs the PID family unless ``USV_STN_CTRL`` is 1 (:mod:`companion.control.system`);
+this law is for making way.  The measurements behind these choices are in ``docs/tuning.md``;
+the current figures in ``usv bench`` (``control``).
 """
 
 from __future__ import annotations
@@ -143,15 +146,18 @@ class ActiveModelController:
 
     def __init__(self, model: QLPVModel, cfg: ActiveModelConfig | None = None,
                  delta_nu: DeltaNuSource | None = None, current: CurrentSource | None = None,
-                 water_relative: bool = False) -> None:
+                 water_relative: bool = False, model_current: CurrentSource | None = None) -> None:
         """``water_relative``: ``delta_nu`` is the error of the model on the velocity through the
         water (the current-augmented filter), so the model is evaluated there too, with
-        ``current`` (module docstring)."""
+        ``model_current``, the current that filter estimated with it (module docstring);
+        ``current``: the vehicle's current estimate, for the commanded speed through the water."""
         self.model = model
         self.cfg = cfg or ActiveModelConfig()
         self.delta_nu_source = delta_nu
         self.current_source = current
         """The water current that gives the commanded speed through the water (module docstring)."""
+        self.model_current_source = model_current
+        """The current delta_nu was estimated against: nu_r of the water-relative model."""
         self.water_relative = water_relative
         self.crab = CrabEstimator(self.cfg.heading.crab_tau_s)
         b = model.b_matrix()
@@ -178,7 +184,8 @@ class ActiveModelController:
         """The current in the body frame, ``R(psi)^T V_c`` (surge, sway m/s): what is taken off the
         velocity over ground to get the one through the water; (0, 0) unless the law is
         ``water_relative`` and an estimate is fresh."""
-        current = self.current_source() if self.water_relative and self.current_source is not None else None
+        source = self.model_current_source
+        current = source() if self.water_relative and source is not None else None
         return current_body_mps(nav.heading_rad, current)
 
     def _update_model_error(self, dt_s: float) -> None:

@@ -8,7 +8,9 @@ the active mode's :class:`~companion.control.target.ControlRequest` to the pipel
 (:meth:`ControlSystem.apply`); the guidance :class:`~companion.messages.Setpoint` goes on
 ``setpoint`` for observers.  The active-model family needs the identified qLPV model and the estimator's model
 error, which the pipeline hands over every sample (:meth:`ControlSystem.use_model_error`), and,
-when that error is the water-relative model's (``water_relative``), the estimator's current;
+when that error is the water-relative model's (``water_relative``), the current it was estimated
+against (``ModelError.water_ne_mps``); the vehicle's current estimate (:meth:`ControlSystem.use_current`)
+gives the commanded speed through the water and is what guidance reads;
 without a model it falls back to PID and says so once.  Station-keeping targets
 (``ControlTarget.hold_station``) are steered by PID unless ``USV_STN_CTRL`` is 1.
 """
@@ -105,11 +107,20 @@ class ControlSystem:
         est = self.water_current
         return None if est is None else (est.north_mps, est.east_mps)
 
-    def _delta_nu(self) -> tuple[float, float, float] | None:
+    def _fresh_model_error(self) -> ModelError | None:
         msg = self._model_error
         if msg is None or self.clock.now_s() - msg.t_s > MODEL_ERROR_STALE_S:
             return None
-        return msg.delta_nu
+        return msg
+
+    def _delta_nu(self) -> tuple[float, float, float] | None:
+        msg = self._fresh_model_error()
+        return None if msg is None else msg.delta_nu
+
+    def _model_current_ne(self) -> tuple[float, float] | None:
+        """The current the model error was estimated against (``None`` over ground or stale)."""
+        msg = self._fresh_model_error()
+        return None if msg is None else msg.water_ne_mps
 
     def family_type(self, target: ControlTarget | None = None) -> int:
         """The controller family that will run for ``target``: PID for station keeping unless
@@ -132,7 +143,8 @@ class ControlSystem:
             p = self.params
             if kind == CTRL_ACTIVE_MODEL and self.model is not None:
                 fam = ActiveModelController(self.model, active_model_config(p), delta_nu=self._delta_nu,
-                                            current=self._current_ne, water_relative=self.water_relative)
+                                            current=self._current_ne, water_relative=self.water_relative,
+                                            model_current=self._model_current_ne)
             else:
                 fam = PidController(pid_config(p))
             self._families[kind] = fam

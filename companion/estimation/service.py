@@ -7,16 +7,18 @@ of Eq. 5-11 on them.  Every navigation sample, :meth:`EstimatorStage.step` takes
 z = [u, v, r] from the NavState and the input last applied (the pipeline's previous
 :class:`~companion.messages.ActuatorCommand`: throttle, nozzle_rad), runs one predict+update and
 returns the :class:`~companion.messages.ModelError` estimate.  The setting ``models.ukf`` picks
-the filter: "chapter" (Eq. 5-11 as published, on over-ground velocities) or "current" (the
-current-augmented filter of :mod:`companion.models.current_ukf`, which also leaves a
-:class:`~companion.messages.CurrentEstimate` in :attr:`EstimatorStage.current` and needs the
-heading; its delta_nu is the error of the model on the velocity through the water, so the
-active-model law then evaluates the model there too, :attr:`EstimatorStage.water_relative`);
-``models.ukf_backend`` picks who computes it ("native" or the "filterpy" reference).  With the
-chapter filter, ``models.current_estimator`` "ukf" (the default) runs the current-augmented
-filter beside it only for the current estimate: the controller keeps the chapter's delta_nu on
-over-ground velocities, guidance gets the current (the water-relative pair measured better on
-legs and LOITER but worse on arrivals, ``docs/tuning.md``).
+the controller's filter: "chapter" (the default: Eq. 5-11 as published, on over-ground
+velocities) or "current" (the current-augmented filter of :mod:`companion.models.current_ukf`
+with the control tuning :func:`~companion.models.current_ukf.control_filter_settings`; its
+delta_nu is the error of the model on the velocity through the water and travels with the
+current it was estimated against, ``ModelError.water_ne_mps``, so the active-model law evaluates
+the model there too, :attr:`EstimatorStage.water_relative`); ``models.ukf_backend`` picks who
+computes it ("native" or the "filterpy" reference).  ``models.current_estimator`` "ukf" (the
+default) runs the current-augmented filter with the prediction tuning
+(:func:`~companion.models.current_ukf.current_filter_settings`, slow delta_nu) beside it: its
+:class:`~companion.messages.CurrentEstimate` in :attr:`EstimatorStage.current` is what guidance
+holds by and the ground station is told, with either filter for the controller (the control
+filter's fast surge error takes up a current along the bow on a straight run).
 A non-finite or out-of-order sample is skipped (``None``, logged once), never raised.
 """
 
@@ -30,7 +32,7 @@ import numpy as np
 
 from companion.config import Config
 from companion.messages import ActuatorCommand, CurrentEstimate, ModelError, NavState
-from companion.models.current_ukf import current_filter_settings, current_weight
+from companion.models.current_ukf import control_filter_settings, current_filter_settings, current_weight
 from companion.models.params_file import load_model_params, load_ukf_settings, resolve_params_path
 from companion.models.qlpv import QLPVModel
 from companion.models.ukf import UKF, UKFSettings, make_ukf
@@ -58,19 +60,19 @@ def load_companion_model(config: Config) -> QLPVModel:
 
 
 def load_companion_ukf_settings(config: Config) -> UKFSettings:
-    """The UKF the companion runs.  ``models.ukf`` "chapter" (default): Eq. 13's noise unless
+    """The UKF the controller flies on.  ``models.ukf`` "chapter" (default): Eq. 13's noise unless
     ``models.ukf_noise`` is "identified" and params.toml has a ``[ukf]`` table.  "current": the
     current-augmented filter with R from the sensor (params.toml's identified ``[ukf]`` R, else
-    the GPS-INS of Table 2) and its own Q
-    (:func:`~companion.models.current_ukf.current_filter_settings`)."""
+    the GPS-INS of Table 2) and the control Q
+    (:func:`~companion.models.current_ukf.control_filter_settings`)."""
     path = _params_path(config)
     if _setting(config, "models.ukf", "chapter") == "current":
         identified = load_ukf_settings(path)
         if identified is None:
             log.info("UKF with current states; R of the GPS-INS datasheet (Table 2)")
-            return current_filter_settings()
+            return control_filter_settings()
         log.info("UKF with current states; R identified, from %s", path)
-        return current_filter_settings(identified.r_diag)
+        return control_filter_settings(identified.r_diag)
     if _setting(config, "models.ukf_noise", "chapter") != "identified":
         return UKFSettings()
     settings = load_ukf_settings(path)
@@ -82,11 +84,10 @@ def load_companion_ukf_settings(config: Config) -> UKFSettings:
 
 
 def load_companion_current_settings(config: Config) -> UKFSettings | None:
-    """The current-augmented filter run beside the chapter filter for the current estimate alone
-    (``models.current_estimator`` "ukf", the default), ``None`` when the main filter already
-    estimates the current (``models.ukf`` "current") or the estimate is switched off ("none")."""
-    if _setting(config, "models.ukf", "chapter") == "current":
-        return None
+    """The current-augmented filter run beside the controller's for the current estimate
+    (``models.current_estimator`` "ukf", the default; prediction tuning,
+    :func:`~companion.models.current_ukf.current_filter_settings`), ``None`` when it is switched
+    off ("none": the current then comes from the controller's filter if it estimates one)."""
     if _setting(config, "models.current_estimator", "ukf") != "ukf":
         return None
     identified = load_ukf_settings(_params_path(config))
@@ -121,16 +122,17 @@ class EstimatorStage:
 
     def __init__(self, model: QLPVModel, settings: UKFSettings | None = None,
                  backend: str = "native", current_settings: UKFSettings | None = None) -> None:
-        """``current_settings``: a current-augmented filter (``estimate_current``) run beside a
-        chapter filter, for :attr:`current` only (ignored when ``settings`` estimates the current)."""
+        """``current_settings``: a current-augmented filter (``estimate_current``) run beside the
+        controller's, for :attr:`current` only (without it, :attr:`current` is the controller's
+        filter's own when that estimates the current)."""
         self.model = model
         self.settings = settings or UKFSettings()
         self.backend = backend
         self.ukf: UKF = make_ukf(model, self.settings, backend=backend)
-        self.current_settings = None if self.ukf.n == 8 else current_settings
+        self.current_settings = current_settings
         self.current_ukf: UKF | None = None if self.current_settings is None else \
             make_ukf(model, self.current_settings, backend=backend)
-        """The side filter that estimates the current beside the chapter filter (or ``None``)."""
+        """The side filter that estimates the current beside the controller's (or ``None``)."""
         self.current: CurrentEstimate | None = None
         """The water current of the last step (a current-augmented filter only; else ``None``)."""
         self._t_last: float | None = None
@@ -182,12 +184,14 @@ class EstimatorStage:
             if self.current_ukf is not None:
                 self.current_ukf.step(z, thr, nozzle, dt_s, nav.heading_rad)
         self._t_last = nav.t_s
-        current_filter = self.ukf if self.ukf.n == 8 else self.current_ukf
+        current_filter = self.current_ukf if self.current_ukf is not None else \
+            (self.ukf if self.ukf.n == 8 else None)
         if current_filter is not None:
             self.current = _current_estimate(nav.t_s, current_filter.x, current_filter.P)
         x, p = self.ukf.x, self.ukf.P
+        water_ne = (x.item(6), x.item(7)) if self.ukf.n == 8 else None
         return ModelError(nav.t_s, (x.item(3), x.item(4), x.item(5)),
-                          (p.item(3, 3), p.item(4, 4), p.item(5, 5)), float(self.ukf.nis))
+                          (p.item(3, 3), p.item(4, 4), p.item(5, 5)), float(self.ukf.nis), water_ne)
 
     def _warn(self, text: str) -> None:
         if not self._warned:

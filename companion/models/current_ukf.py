@@ -54,6 +54,28 @@ def current_filter_settings(r_diag: tuple[float, ...] = TABLE2_R_DIAG) -> UKFSet
                        estimate_current=True, q_current=1e-6, p0_current=0.25)
 
 
+CONTROL_SURGE_DELTA_NU_Q = 1e-3
+"""The control filter's delta_nu_u random walk ((m/s^2)^2 per second; see
+:func:`control_filter_settings`)."""
+
+
+def control_filter_settings(r_diag: tuple[float, ...] = TABLE2_R_DIAG) -> UKFSettings:
+    """The current-augmented filter the controller flies on (``models.ukf = "current"``): that of
+    :func:`current_filter_settings` with a fast surge model error (delta_nu_u random walk
+    :data:`CONTROL_SURGE_DELTA_NU_Q` instead of 1e-6).
+
+    The identified surge row is far off at speed through the water (steady speed at throttle 0.9:
+    model 5.5 m/s, simulator 8.3 m/s), which a boat running into a flood current reaches; with
+    the slow delta_nu_u of the prediction filter the active-model law overran its speed there and
+    swung off its legs.  A fast delta_nu_u also takes up a current along the bow on a straight run
+    (the along-track current and a surge model error look alike until the boat turns), so the
+    current the vehicle reports and holds by comes from :func:`current_filter_settings` run beside
+    it (:class:`~companion.estimation.service.EstimatorStage`).  Measured in ``docs/tuning.md``
+    ("A fast surge model error for the controller")."""
+    q = (1e-2, 1e-2, 1e-3, CONTROL_SURGE_DELTA_NU_Q, 1e-6, 1e-7)
+    return UKFSettings(q_diag=q, r_diag=tuple(r_diag), estimate_current=True, q_current=1e-6, p0_current=0.25)
+
+
 def current_mahalanobis(current_ne: FloatArray, cov: FloatArray) -> float:
     """V_c^T P_c^-1 V_c: how many (squared) standard deviations the current is from still water."""
     try:

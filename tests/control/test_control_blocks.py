@@ -256,24 +256,32 @@ def test_active_model_refuses_a_model_without_control_authority() -> None:
 
 def test_water_relative_law_steers_a_boat_carried_by_a_current_as_the_same_boat_in_still_water() -> None:
     """With the current-augmented filter (delta_nu of the model through the water) the active-model
-    law evaluates the qLPV model on nu_r = nu - R(psi)^T V_c: a boat making 3 m/s through the water
-    while a 1.2 m/s current carries it sideways gets the nozzle and throttle of the same boat in
-    still water.  On over-ground velocities the current's 1.2 m/s reads as sway, whose coupling
-    into yaw (the toy model's N_v) moves the nozzle."""
+    law evaluates the qLPV model on nu_r = nu - R(psi)^T V_c, V_c the current that filter estimated
+    with delta_nu (``model_current``): a boat making 3 m/s through the water while a 1.2 m/s
+    current carries it sideways gets the nozzle and throttle of the same boat in still water.  On
+    over-ground velocities the current's 1.2 m/s reads as sway, whose coupling into yaw (the toy
+    model's N_v) moves the nozzle; so it does when only the vehicle's current estimate
+    (``current``, what guidance holds by) is there: the model is evaluated against the current its
+    own delta_nu belongs to."""
     model = toy_model()
     current = (0.0, 1.2)  # toward east; the bow points north, so the current is all sway
     in_current = nav_from(0.0, 0, 0, 0.0, np.array([3.0, 1.2, 0.05]))
     still = nav_from(0.0, 0, 0, 0.0, np.array([3.0, 0.0, 0.05]))
     target = ControlTarget(course_rad=math.radians(10.0), speed_mps=3.5, is_heading=True)
 
-    def output(nav: NavState, water_relative: bool, with_current: bool) -> tuple[float, float]:
+    def output(nav: NavState, water_relative: bool, vehicle_current: bool, model_current: bool
+               ) -> tuple[float, float]:
         ctl = ActiveModelController(model, ActiveModelConfig(), delta_nu=lambda: (0.0, 0.0, 0.0),
-                                    current=(lambda: current) if with_current else None,
-                                    water_relative=water_relative)
+                                    current=(lambda: current) if vehicle_current else None,
+                                    water_relative=water_relative,
+                                    model_current=(lambda: current) if model_current else None)
         out = ctl.update(nav, target, 0.01, NO_SATURATION)
         return out.nozzle_rad, out.throttle
 
-    reference = output(still, water_relative=False, with_current=False)
-    assert output(in_current, water_relative=True, with_current=True) == pytest.approx(reference, abs=1e-9)
-    over_ground = output(in_current, water_relative=False, with_current=True)
+    reference = output(still, water_relative=False, vehicle_current=False, model_current=False)
+    for vehicle_current in (True, False):
+        water_relative = output(in_current, True, vehicle_current, model_current=True)
+        assert water_relative == pytest.approx(reference, abs=1e-9)
+    over_ground = output(in_current, water_relative=False, vehicle_current=True, model_current=True)
+    assert output(in_current, True, vehicle_current=True, model_current=False) == pytest.approx(over_ground)
     assert abs(over_ground[0] - reference[0]) > math.radians(2.0)

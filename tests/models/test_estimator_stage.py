@@ -18,6 +18,7 @@ from companion.estimation.service import (
     load_companion_ukf_settings,
 )
 from companion.messages import NAV_TOPIC, ActuatorCommand, CurrentEstimate, NavState
+from companion.models.current_ukf import control_filter_settings, current_filter_settings
 
 
 def _nav(t: float, u: float) -> NavState:
@@ -73,25 +74,38 @@ def _turning_navs(n: int) -> list[NavState]:
     return out
 
 
-def test_default_runs_the_chapter_filter_for_the_controller_and_a_current_filter_beside_it(
-        tmp_path: Path) -> None:
-    """Default configuration: the model error is exactly the chapter filter's (what the controller
-    flies today), and the current comes from the current-augmented filter run alongside."""
+def test_the_controller_filter_runs_with_the_current_filter_beside_it(tmp_path: Path) -> None:
+    """Default configuration: the controller's model error is exactly the chapter filter's (over
+    the ground: no current with it), and the vehicle's current estimate (guidance, the ground
+    station) comes from the current-augmented filter with the prediction tuning run alongside.
+    ``models.ukf = "current"``: the controller's model error is the current-augmented filter's
+    with the control tuning (fast surge error) and carries the current it was estimated against,
+    while the vehicle's current estimate still comes from the filter beside it."""
     cfg = default_config().with_overrides({"vehicle.state_dir": str(tmp_path)})
-    default = EstimatorStage(load_companion_model(cfg), load_companion_ukf_settings(cfg),
-                             load_companion_ukf_backend(cfg), load_companion_current_settings(cfg))
+    current_cfg = cfg.with_overrides({"models.ukf": "current"})
+    stages = {name: EstimatorStage(load_companion_model(c), load_companion_ukf_settings(c),
+                                   load_companion_ukf_backend(c), load_companion_current_settings(c))
+              for name, c in (("default", cfg), ("current", current_cfg))}
+    assert not stages["default"].water_relative and stages["current"].water_relative
+    r_diag = stages["current"].settings.r_diag  # the sensor noise the shipped model was identified with
+    assert stages["current"].settings == control_filter_settings(r_diag)
+    prediction_settings = current_filter_settings(r_diag)
+    assert stages["default"].current_settings == stages["current"].current_settings == prediction_settings
     chapter = _stage(tmp_path)
-    alone = _stage(tmp_path, **{"models.ukf": "current"})
+    control = EstimatorStage(load_companion_model(cfg), control_filter_settings(r_diag))
+    prediction = EstimatorStage(load_companion_model(cfg), current_filter_settings(r_diag))
     applied = ActuatorCommand(0.0, 0.3, 0.3, ignition_on=True)
     for nav in _turning_navs(1500):
-        err, ref = default.step(nav, applied), chapter.step(nav, applied)
-        alone.step(nav, applied)
-        assert err is not None and ref is not None and err.delta_nu == ref.delta_nu
-    assert chapter.current is None and default.current is not None and alone.current is not None
-    assert (default.current.north_mps, default.current.east_mps) == pytest.approx(
-        (alone.current.north_mps, alone.current.east_mps), abs=1e-9)
+        default, water = stages["default"].step(nav, applied), stages["current"].step(nav, applied)
+        ref, own = chapter.step(nav, applied), control.step(nav, applied)
+        prediction.step(nav, applied)
+        assert default is not None and ref is not None and default == ref and default.water_ne_mps is None
+        assert water is not None and own is not None and water == own
+    assert chapter.current is None and control.current is not None and prediction.current is not None
+    assert water is not None and water.water_ne_mps == (control.current.north_mps, control.current.east_mps)
+    assert stages["default"].current == stages["current"].current == prediction.current
+    assert (prediction.current.north_mps, prediction.current.east_mps) == pytest.approx((0.0, 0.6), abs=0.05)
     assert load_companion_current_settings(cfg.with_overrides({"models.current_estimator": "none"})) is None
-    assert load_companion_current_settings(cfg.with_overrides({"models.ukf": "current"})) is None
 
 
 def test_with_the_ignition_off_the_filters_see_no_thrust(tmp_path: Path) -> None:
@@ -118,13 +132,15 @@ def test_chapter_filter_estimates_no_current(tmp_path: Path) -> None:
 
 
 def _estimate_in_sitl(current: str, seconds: float = 150.0) -> CurrentEstimate:
-    """The shipped default model and the current filter, in lockstep SITL (simulated GPS-INS and
-    its parser), the boat driven open loop: 60 % throttle, nozzle sine +-0.4 rad, 20 s period."""
+    """The current the vehicle reports with the shipped default model and filters, in lockstep SITL
+    (simulated GPS-INS and its parser), the boat driven open loop: 60 % throttle, nozzle sine
+    +-0.4 rad, 20 s period."""
     from sim_bridge.sitl import SitlHarness
 
     async def run() -> CurrentEstimate:
-        cfg = default_config().with_overrides({"models.ukf": "current"})
-        stage = EstimatorStage(load_companion_model(cfg), load_companion_ukf_settings(cfg))
+        cfg = default_config()
+        stage = EstimatorStage(load_companion_model(cfg), load_companion_ukf_settings(cfg),
+                               current_settings=load_companion_current_settings(cfg))
         async with SitlHarness(seed=3, current=current, full_stack=False) as h:
             h.drive(lambda nav: ActuatorCommand(nav.t_s, throttle=0.6, ignition_on=True,
                                                 nozzle_rad=0.4 * math.sin(2 * math.pi * nav.t_s / 20.0)))
