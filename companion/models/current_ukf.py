@@ -25,6 +25,7 @@ payload, thrust-map error).  Sigma points, time update and the exact linear meas
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -38,9 +39,10 @@ velocity axis, 0.05 deg/s gyro (1 sigma).  The heading's 0.2 deg adds ~0.0035 U 
 
 
 def current_filter_settings(r_diag: tuple[float, ...] = TABLE2_R_DIAG) -> UKFSettings:
-    """The current-augmented filter's tuning (``models.ukf = "current"``): R from the sensor
-    (``r_diag``: Table 2, or the ``[ukf]`` noise ``usv identify`` measured), and Q split by
-    what persists (issue 14):
+    """The current-augmented filter's prediction tuning (the filter that gives the vehicle's
+    current estimate beside the controller's, and the one ``usv bench identify`` reports): R from
+    the sensor (``r_diag``: Table 2, or the ``[ukf]`` noise ``usv identify`` measured), and Q split
+    by what persists (issue 14):
 
     * nu rows (1e-2, 1e-2, 1e-3 per second): the fast model error, which changes sign within
       the prediction horizon (calm-water logs: its correlation with itself 1 s later is
@@ -72,8 +74,9 @@ def control_filter_settings(r_diag: tuple[float, ...] = TABLE2_R_DIAG) -> UKFSet
     current the vehicle reports and holds by comes from :func:`current_filter_settings` run beside
     it (:class:`~companion.estimation.service.EstimatorStage`).  Measured in ``docs/tuning.md``
     ("A fast surge model error for the controller")."""
-    q = (1e-2, 1e-2, 1e-3, CONTROL_SURGE_DELTA_NU_Q, 1e-6, 1e-7)
-    return UKFSettings(q_diag=q, r_diag=tuple(r_diag), estimate_current=True, q_current=1e-6, p0_current=0.25)
+    prediction = current_filter_settings(r_diag)
+    q = prediction.q_diag
+    return replace(prediction, q_diag=(*q[:3], CONTROL_SURGE_DELTA_NU_Q, *q[4:]))
 
 
 def current_mahalanobis(current_ne: FloatArray, cov: FloatArray) -> float:
