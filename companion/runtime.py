@@ -131,7 +131,7 @@ def build_companion(ctx: Context, hardware: HardwareLinks | None = None,
     model = load_companion_model(config)
     estimator = EstimatorStage(model, load_companion_ukf_settings(config), load_companion_ukf_backend(config),
                                load_companion_current_settings(config))
-    control = ControlSystem(params, clock, bus, model, water_relative=estimator.water_relative)
+    control = ControlSystem(params, clock, bus, model)
     profile = str(config["vehicle.profile"])
     mission = MissionCursor(MissionStore(config.state_dir() / "missions"), home_placeholder_profile(profile))
     vehicle = Vehicle(ctx, mission, ModeManager(MODE_CLASSES), control, actions)

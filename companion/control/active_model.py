@@ -146,10 +146,10 @@ class ActiveModelController:
 
     def __init__(self, model: QLPVModel, cfg: ActiveModelConfig | None = None,
                  delta_nu: DeltaNuSource | None = None, current: CurrentSource | None = None,
-                 water_relative: bool = False, model_current: CurrentSource | None = None) -> None:
-        """``water_relative``: ``delta_nu`` is the error of the model on the velocity through the
-        water (the current-augmented filter), so the model is evaluated there too, with
-        ``model_current``, the current that filter estimated with it (module docstring);
+                 model_current: CurrentSource | None = None) -> None:
+        """``model_current``: the current ``delta_nu`` was estimated against when it is the error of
+        the model on the velocity through the water (the current-augmented filter; ``None`` from it
+        when delta_nu is over the ground), so the model is evaluated there too (module docstring);
         ``current``: the vehicle's current estimate, for the commanded speed through the water."""
         self.model = model
         self.cfg = cfg or ActiveModelConfig()
@@ -158,7 +158,6 @@ class ActiveModelController:
         """The water current that gives the commanded speed through the water (module docstring)."""
         self.model_current_source = model_current
         """The current delta_nu was estimated against: nu_r of the water-relative model."""
-        self.water_relative = water_relative
         self.crab = CrabEstimator(self.cfg.heading.crab_tau_s)
         b = model.b_matrix()
         self._b_u = float(b[0, 1])
@@ -182,10 +181,10 @@ class ActiveModelController:
 
     def _body_current_mps(self, nav: NavState) -> tuple[float, float]:
         """The current in the body frame, ``R(psi)^T V_c`` (surge, sway m/s): what is taken off the
-        velocity over ground to get the one through the water; (0, 0) unless the law is
-        ``water_relative`` and an estimate is fresh."""
+        velocity over ground to get the one through the water; (0, 0) unless the model error is
+        the water-relative model's and fresh."""
         source = self.model_current_source
-        current = source() if self.water_relative and source is not None else None
+        current = source() if source is not None else None
         return current_body_mps(nav.heading_rad, current)
 
     def _update_model_error(self, dt_s: float) -> None:

@@ -8,7 +8,7 @@ the active mode's :class:`~companion.control.target.ControlRequest` to the pipel
 (:meth:`ControlSystem.apply`); the guidance :class:`~companion.messages.Setpoint` goes on
 ``setpoint`` for observers.  The active-model family needs the identified qLPV model and the estimator's model
 error, which the pipeline hands over every sample (:meth:`ControlSystem.use_model_error`), and,
-when that error is the water-relative model's (``water_relative``), the current it was estimated
+when that error is the water-relative model's, the current it was estimated
 against (``ModelError.water_ne_mps``); the vehicle's current estimate (:meth:`ControlSystem.use_current`)
 gives the commanded speed through the water and is what guidance reads;
 without a model it falls back to PID and says so once.  Station-keeping targets
@@ -58,13 +58,8 @@ MODEL_ERROR_STALE_S = 0.5
 class ControlSystem:
     """Controller families and actuator mapping for one vehicle."""
 
-    def __init__(self, params: ParamStore, clock: Clock, bus: Bus, model: QLPVModel | None,
-                 water_relative: bool = False) -> None:
-        """``water_relative``: the estimator's delta_nu is the error of the model on the velocity
-        through the water (the current-augmented filter), so the active-model law evaluates the
-        model there too (:mod:`companion.control.active_model`)."""
+    def __init__(self, params: ParamStore, clock: Clock, bus: Bus, model: QLPVModel | None) -> None:
         self.params = params
-        self.water_relative = water_relative
         self.clock = clock
         self.model = model
         self._families: dict[int, CourseSpeedController] = {}
@@ -143,8 +138,7 @@ class ControlSystem:
             p = self.params
             if kind == CTRL_ACTIVE_MODEL and self.model is not None:
                 fam = ActiveModelController(self.model, active_model_config(p), delta_nu=self._delta_nu,
-                                            current=self._current_ne, water_relative=self.water_relative,
-                                            model_current=self._model_current_ne)
+                                            current=self._current_ne, model_current=self._model_current_ne)
             else:
                 fam = PidController(pid_config(p))
             self._families[kind] = fam

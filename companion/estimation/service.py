@@ -141,7 +141,7 @@ class EstimatorStage:
     @property
     def water_relative(self) -> bool:
         """Whether delta_nu is the error of the model on the velocity through the water (the main
-        filter is the current-augmented one), which the controller then evaluates there too."""
+        filter is the current-augmented one; its model errors carry ``water_ne_mps``)."""
         return self.ukf.n == 8
 
     def warm_up(self) -> None:
