@@ -159,7 +159,7 @@ class EstimatorStage:
         """One predict+update for ``nav`` with the input ``applied`` since the last sample
         (``None``: nothing applied yet, throttle 0 and nozzle centred; ignition off: throttle 0)."""
         u_mps, v_mps, r_radps = nav.u_mps, nav.v_mps, nav.r_radps
-        needs_heading = self.ukf.n == 8 or self.current_ukf is not None
+        needs_heading = self.water_relative or self.current_ukf is not None
         # math.isfinite on the three floats: what np.all(np.isfinite(z)) says, at 1/40 of its cost
         if not (isfinite(u_mps) and isfinite(v_mps) and isfinite(r_radps) and isfinite(nav.t_s)
                 and (isfinite(nav.heading_rad) or not needs_heading)):
@@ -185,11 +185,11 @@ class EstimatorStage:
                 self.current_ukf.step(z, thr, nozzle, dt_s, nav.heading_rad)
         self._t_last = nav.t_s
         current_filter = self.current_ukf if self.current_ukf is not None else \
-            (self.ukf if self.ukf.n == 8 else None)
+            (self.ukf if self.water_relative else None)
         if current_filter is not None:
             self.current = _current_estimate(nav.t_s, current_filter.x, current_filter.P)
         x, p = self.ukf.x, self.ukf.P
-        water_ne = (x.item(6), x.item(7)) if self.ukf.n == 8 else None
+        water_ne = (x.item(6), x.item(7)) if self.water_relative else None
         return ModelError(nav.t_s, (x.item(3), x.item(4), x.item(5)),
                           (p.item(3, 3), p.item(4, 4), p.item(5, 5)), float(self.ukf.nis), water_ne)
 
