@@ -30,6 +30,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from benchmarks.mavlink_gcs import free_port
 from companion.link.dialect import mav, new_codec
 
 ALIVE_ATTEMPTS = 3
@@ -52,12 +53,6 @@ def usv_command() -> list[str]:
         return [str(script)]
     found = shutil.which("usv")
     return [found] if found else [sys.executable, "-m", "companion.cli"]
-
-
-def free_port(kind: int) -> int:
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def rss_kb(pid: int) -> int:

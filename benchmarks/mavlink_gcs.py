@@ -12,15 +12,39 @@ import random
 import socket
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from companion.link.dialect import mav, new_codec
 
+FIRST_PICKED_PORT = 20000
+"""Ports for :func:`free_port` are picked from here up to the kernel's ephemeral range."""
+
+
+def _ephemeral_low() -> int:
+    """The first port the kernel hands out by itself (Linux ``ip_local_port_range``; 32768 else)."""
+    try:
+        return int(Path("/proc/sys/net/ipv4/ip_local_port_range").read_text().split()[0])
+    except (OSError, ValueError, IndexError):
+        return 32768
+
 
 def free_port(kind: int = socket.SOCK_DGRAM) -> int:
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
+    """A loopback port that is free for ``kind`` now, for a process started next to bind.  Picked
+    below the kernel's ephemeral range: a port from that range (what ``bind(0)`` gives) can be
+    handed to another socket's outgoing connection before that process binds it, and the test
+    then finds its port taken ("address already in use")."""
+    low = _ephemeral_low()
+    rng = random.SystemRandom()
+    for _ in range(200):
+        port = rng.randrange(FIRST_PICKED_PORT, low) if low > FIRST_PICKED_PORT + 100 else 0
+        with socket.socket(socket.AF_INET, kind) as s:
+            try:
+                s.bind(("127.0.0.1", port))
+            except OSError:
+                continue
+            return int(s.getsockname()[1])
+    raise OSError("no free loopback port found")
 
 
 class _Proto(asyncio.DatagramProtocol):

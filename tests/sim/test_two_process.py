@@ -22,16 +22,12 @@ from pathlib import Path
 import pytest
 from pymavlink import mavutil
 
+from benchmarks.mavlink_gcs import free_port
+
 from ..conftest import usv_command
 
 HOME_A = (41.7700, 123.4300)
 HOME_B = (41.7800, 123.4500)
-
-
-def free_port(kind: int = socket.SOCK_STREAM) -> int:
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 class Proc:
@@ -123,7 +119,7 @@ def test_companion_process_drives_the_sim_process_over_ptys_and_survives_a_sim_r
     tmp_path: Path, usv_env: dict[str, str]
 ) -> None:
     gnss, servo = tmp_path / "gpsins", tmp_path / "servo"
-    tcp = free_port()
+    tcp = free_port(socket.SOCK_STREAM)
     sim_cfg_a = write_sim_config(tmp_path / "sim_a.toml", HOME_A, tmp_path / "sim-state")
     sim_cfg_b = write_sim_config(tmp_path / "sim_b.toml", HOME_B, tmp_path / "sim-state")
     comp_cfg = write_companion_config(tmp_path / "companion.toml", str(gnss), str(servo), tcp,
@@ -166,7 +162,8 @@ def test_companion_process_drives_the_sim_process_over_ptys_and_survives_a_sim_r
 
 
 def test_companion_and_sim_over_udp(tmp_path: Path, usv_env: dict[str, str]) -> None:
-    gnss_port, servo_port, tcp = free_port(socket.SOCK_DGRAM), free_port(socket.SOCK_DGRAM), free_port()
+    gnss_port, servo_port = free_port(socket.SOCK_DGRAM), free_port(socket.SOCK_DGRAM)
+    tcp = free_port(socket.SOCK_STREAM)
     sim_cfg = write_sim_config(tmp_path / "sim.toml", HOME_B, tmp_path / "sim-state")
     comp_cfg = write_companion_config(tmp_path / "companion.toml", f"udp:127.0.0.1:{gnss_port}",
                                       f"udpout:127.0.0.1:{servo_port}", tcp, tmp_path / "cs")
