@@ -19,7 +19,9 @@ default) runs the current-augmented filter with the prediction tuning
 :class:`~companion.messages.CurrentEstimate` in :attr:`EstimatorStage.current` is what guidance
 holds by and the ground station is told, with either filter for the controller (the control
 filter's fast surge error takes up a current along the bow on a straight run).
-A non-finite or out-of-order sample is skipped (``None``, logged once), never raised.
+A non-finite sample, or a second one with the time of the one before (a burst from the link),
+is skipped (``None``); a sample from the past (logged once) or after a gap of more than
+:data:`MAX_GAP_S` restarts the filters from its measurement.  Nothing raises.
 """
 
 from __future__ import annotations
@@ -170,6 +172,14 @@ class EstimatorStage:
         # while its mode may still ask the controller for throttle; that thrust never happened)
         thr = applied.throttle if applied is not None and applied.ignition_on else 0.0
         nozzle = applied.nozzle_rad if applied is not None else 0.0
+        if nav.t_s == self._t_last:
+            # two samples handed over at one clock reading: a burst from the link (the simulator's
+            # samples kept until the companion attached; sentences read from a serial port in one
+            # go, on a clock coarser than the sample interval).  There is no interval to predict
+            # over; the filters keep their state (restarting them here lost the current estimate)
+            # and the next sample goes on from it.
+            log.debug("estimator: a second navigation sample at t=%s skipped", nav.t_s)
+            return None
         if self._t_last is None or not 0.0 < nav.t_s - self._t_last <= MAX_GAP_S:
             if self._t_last is not None and nav.t_s <= self._t_last:
                 self._warn(f"navigation time went from {self._t_last} to {nav.t_s}; filter restarted")

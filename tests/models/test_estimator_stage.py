@@ -187,3 +187,23 @@ def test_a_non_finite_sample_is_skipped_and_leaves_the_filters_as_they_were(tmp_
     assert (stage.ukf.x == before[0]).all() and (stage.current_ukf.x == before[1]).all()
     assert stage.current is before[2]
     assert stage.step(_nav(0.2, 1.0), applied) is not None  # the next good sample is used
+
+
+def test_a_burst_of_samples_at_one_clock_reading_keeps_the_current_estimate(tmp_path: Path) -> None:
+    """Samples handed over together (the simulator's kept until the companion attached, a serial
+    read of several sentences) carry one clock reading.  The second one is skipped and the filters
+    go on: before, it restarted them ("navigation time went from 0.02 to 0.02; filter restarted")
+    and the current estimate started again from slack water."""
+    cfg = default_config().with_overrides({"vehicle.state_dir": str(tmp_path)})
+    stage = EstimatorStage(load_companion_model(cfg), load_companion_ukf_settings(cfg),
+                           current_settings=load_companion_current_settings(cfg))
+    applied = ActuatorCommand(0.0, 0.3, 0.3, ignition_on=True)
+    navs = _turning_navs(1200)
+    for nav in navs[:1000]:
+        stage.step(nav, applied)
+    assert stage.current is not None and stage.current.speed_mps == pytest.approx(0.6, abs=0.05)
+    assert stage.step(navs[999], applied) is None  # the same time again
+    for nav in navs[1000:1010]:
+        assert stage.step(nav, applied) is not None
+    assert stage.current.speed_mps == pytest.approx(0.6, abs=0.05)
+    assert stage.current.confidence > 0.5
