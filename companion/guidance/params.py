@@ -59,9 +59,10 @@ PARAMS: tuple[ParamDef, ...] = (
              "(companion/guidance/sidestep.py). 0: turn where the boat is."),
     ParamDef("USV_WP_JOIN", 70.0, 0.0, 90.0, "deg",
              "AUTO entered while the boat orbits a hold point (RTL, LOITER or GUIDED in a current weaker "
-             "than USV_HOLD_CREEP): keep orbiting until the course is within this of the first leg "
-             "(turning toward it), at most one orbit or 20 s, then start the leg from there, as an aircraft "
-             "leaves a holding pattern. 0: start the leg at once. From rest, a straight run or off the "
+             "than USV_HOLD_CREEP): keep orbiting until the course over ground and the course through the "
+             "water are both within this of the first leg (turning toward it, not past it), at most one "
+             "orbit or 20 s, then start the leg from there, as an aircraft leaves a holding pattern. 0: "
+             "start the leg at once. From rest, a straight run or off the "
              "orbit (more than 2 m from its circle) AUTO always starts at once."),
     ParamDef("USV_WP_YAW_LAG", 2.5, 0.0, 10.0, "s",
              "Time the boat needs to build up its turn rate; turns at corners start this much earlier."),

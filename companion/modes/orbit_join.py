@@ -5,16 +5,28 @@ drift-compensated orbit (:class:`~companion.modes.holding.OrbitTask`).  AUTO ent
 to start the first leg at once from wherever the orbit had the boat: with the course 90 degrees
 off the leg, or pointing the other way, the turn onto it ran at ``USV_WP_TURN_SPD`` and swung the
 boat 5-10 m off the line (``docs/tuning.md``).  Instead, AUTO keeps flying the very orbit the hold
-was flying (same centre, radius, direction and current feed-forward) until the course over ground
-points along the leg, then starts the leg from where the boat is::
+was flying (same centre, radius, direction and current feed-forward) until the course points
+along the leg, over the ground and through the water alike, then starts the leg from where the
+boat is::
 
     to_go = lam * wrap(beta - chi)          beta: bearing from the boat to the leg's end
                                             chi:  course over ground, lam: +1 clockwise orbit
-    join when  -PAST_RAD <= to_go <= USV_WP_JOIN     or the bow has turned a full orbit
-                                                     or MAX_WAIT_S have passed
+    to_go_w = lam * wrap(beta - chi_w)      chi_w: course through the water (the velocity over
+                                                   ground less the estimated current)
+    join when  0 <= to_go <= USV_WP_JOIN and 0 <= to_go_w <= USV_WP_JOIN
+                                            or the bow has turned a full orbit
+                                            or MAX_WAIT_S have passed
 
-``to_go`` is the turn still to come the orbit's way; the join happens while the boat is still
-turning toward the leg (the leg's LOS finishes the turn the same way: with the default 70 deg the
+``to_go`` is the turn still to come the orbit's way.  In a current the course over ground and the
+course through the water (where the boat turns) differ by up to 30-40 deg on the orbit, and each
+alone joined early on one side: over the ground with the current down the leg (the course points
+along it while the bow is still across: the leg then finished the turn at speed, 2.0-2.7 m off its
+line), through the water with the current against it (2.3 m); both must agree.  And only while the
+boat still turns toward the leg: joined just past it (up to 20 deg, as before) the leg had to
+reverse the orbit's turn and swung 5.5-7.9 m off; it now keeps the orbit round once more
+(``docs/tuning.md``, "Leaving the hold orbit: course over ground and through the water").  The
+join happens while the boat is still turning toward the leg (the leg's LOS finishes the turn the
+same way: with the default 70 deg the
 boat leaves before the orbit's far side, 1.9-2.3 m from the point in a 0.5 m/s current), and
 after at most one orbit (about 12 s at ``USV_HOLD_ORB_SPD`` 1 m/s on ``USV_TURN_RAD`` 2 m) it
 joins wherever it is.  AUTO entered from rest or from a straight run starts at once, as
@@ -33,8 +45,6 @@ from companion.guidance.geo import distance_bearing, wrap_pi
 from companion.messages import NavState
 from companion.modes.holding import OrbitTask
 
-PAST_RAD = math.radians(20.0)
-"""A course this far past the leg's bearing (the orbit's way) still joins at once."""
 FULL_ORBIT_RAD = 2.0 * math.pi
 """The join gives up waiting after the bow has turned this far."""
 COURSE_MIN_SPEED_MPS = 0.3
@@ -55,6 +65,15 @@ def course_rad(nav: NavState) -> float:
     """Course over ground, or the heading when the boat barely moves."""
     moving = nav.speed_over_ground_mps >= COURSE_MIN_SPEED_MPS
     return nav.course_over_ground_rad if moving else nav.heading_rad
+
+
+def course_through_water_rad(nav: NavState, current_ne_mps: tuple[float, float]) -> float:
+    """Course through the water (the velocity over ground less the current), or the heading when
+    the boat barely moves through it."""
+    north_mps, east_mps = nav.vel_north_mps - current_ne_mps[0], nav.vel_east_mps - current_ne_mps[1]
+    if math.hypot(north_mps, east_mps) < COURSE_MIN_SPEED_MPS:
+        return nav.heading_rad
+    return math.atan2(east_mps, north_mps)
 
 
 class OrbitJoin:
@@ -82,11 +101,18 @@ class OrbitJoin:
         far = math.dist(self.end_ne, here) > MIN_LEG_RADII * self.orbit.radius_m
         return on_orbit and far
 
-    def to_go_rad(self, nav: NavState) -> float:
-        """The turn (rad, the orbit's way) from the course to the bearing of the leg's end."""
+    def _bearing_rad(self, nav: NavState) -> float:
         here = self.frame.to_ne(nav.lat_deg, nav.lon_deg)
-        bearing = distance_bearing(self.end_ne[0] - here[0], self.end_ne[1] - here[1])[1]
-        return self.lam * wrap_pi(bearing - course_rad(nav))
+        return distance_bearing(self.end_ne[0] - here[0], self.end_ne[1] - here[1])[1]
+
+    def to_go_rad(self, nav: NavState) -> float:
+        """The turn (rad, the orbit's way) from the course over ground to the bearing of the leg's end."""
+        return self.lam * wrap_pi(self._bearing_rad(nav) - course_rad(nav))
+
+    def to_go_through_water_rad(self, nav: NavState) -> float:
+        """The turn (rad, the orbit's way) from the course through the water to the same bearing."""
+        current = self.orbit.current()
+        return self.lam * wrap_pi(self._bearing_rad(nav) - course_through_water_rad(nav, current))
 
     def aligned(self, nav: NavState) -> bool:
         """Whether to leave the orbit now (module docstring)."""
@@ -97,8 +123,9 @@ class OrbitJoin:
         if self._last_heading_rad is not None:
             self.turned_rad += self.lam * wrap_pi(nav.heading_rad - self._last_heading_rad)
         self._last_heading_rad = nav.heading_rad
-        to_go = self.to_go_rad(nav)
-        return -PAST_RAD <= to_go <= self.tolerance_rad or abs(self.turned_rad) >= FULL_ORBIT_RAD
+        turning_toward = all(0.0 <= to_go <= self.tolerance_rad
+                             for to_go in (self.to_go_rad(nav), self.to_go_through_water_rad(nav)))
+        return turning_toward or abs(self.turned_rad) >= FULL_ORBIT_RAD
 
     def step(self, nav: NavState, dt_s: float) -> ControlTarget:
         target = self.orbit.step(nav, dt_s)

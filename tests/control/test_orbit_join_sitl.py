@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import math
 
+import pytest
+
 from companion.guidance.geo import LocalFrame, distance_to_segment_m, wrap_pi
 from companion.messages import STATUS_TEXT_TOPIC
 from companion.mission import items as mi
@@ -24,15 +26,21 @@ def _pos(h: SitlHarness) -> tuple[float, float]:
     return h.plant.state.north_m, h.plant.state.east_m
 
 
-async def test_auto_from_rtls_orbit_heading_away_keeps_it_until_the_bow_points_along_the_first_leg() -> None:
-    """0.4 m/s current toward east (weaker than the jet's idle creep): RTL orbits home.  AUTO is
-    entered when the orbit's course points away from the northbound first leg (a U-turn).  It keeps
-    circling home for about half an orbit, then runs up the leg from where it left the orbit.
-    Measured (``USV_WP_JOIN`` 70 deg): 3.5 s on the orbit, at most 3.1 m from home, then within
-    1.18 m of the leg's line for 15 s (40 deg: 4.3 s, 0.71 m); with ``USV_WP_JOIN`` 0 (the turn at
-    once) 4.2 m from the leg's line."""
-    off_deg = 180.0
-    async with SitlHarness(seed=3, current="0.4,90", full_stack=True) as h:
+@pytest.mark.parametrize(("seed", "current", "off_deg"), [(3, "0.4,90", 180.0), (5, "0.4,0", 180.0),
+                                                        (3, "0.4,90", 340.0)])
+async def test_auto_from_rtls_orbit_heading_away_keeps_it_until_the_bow_points_along_the_first_leg(
+        seed: int, current: str, off_deg: float) -> None:
+    """0.4 m/s current (weaker than the jet's idle creep) across the northbound first leg (toward
+    east) or down it (toward north): RTL orbits home.  AUTO is entered when the orbit's course over
+    ground points away from the leg (a U-turn, ``off_deg`` 180) or has just passed it (20 deg past,
+    340).  It keeps circling home (about half an orbit; once round when just past), then runs up
+    the leg from where it left the orbit.  Measured (``USV_WP_JOIN`` 70 deg), wait on the orbit and
+    largest distance from the leg's line in the next 15 s: across, U-turn 3.4 s, 1.26 m (at most
+    3.1 m from home; ``USV_WP_JOIN`` 0, the turn at once: 4.2 m); down the leg 5.5 s, 1.06 m;
+    across, just past 6.6 s, 1.25 m.  Joined on the course over ground alone, as before: down the
+    leg 4.5 s, 2.10 m (the course points along the leg while the bow is still across it); just
+    past, at once, 4.45 m (the leg reversed the orbit's turn)."""
+    async with SitlHarness(seed=seed, current=current, full_stack=True) as h:
         await h.run_for(2.0)
         vehicle = h.services.vehicle
         texts: list[str] = []
