@@ -62,8 +62,8 @@ PARAMS: tuple[ParamDef, ...] = (
              "than USV_HOLD_CREEP): keep orbiting until the course over ground and the course through the "
              "water are both within this of the first leg (turning toward it, not past it), at most one "
              "orbit or 20 s, then start the leg from there, as an aircraft leaves a holding pattern. 0: "
-             "start the leg at once. From rest, a straight run or off the "
-             "orbit (more than 2 m from its circle) AUTO always starts at once."),
+             "start the leg at once. From rest, a straight run or off the orbit (more than 2 m from its "
+             "circle) AUTO always starts at once."),
     ParamDef("USV_WP_YAW_LAG", 2.5, 0.0, 10.0, "s",
              "Time the boat needs to build up its turn rate; turns at corners start this much earlier."),
     ParamDef("USV_CIRC_K", 1.0, 0.1, 20.0, "", "Point tracking: convergence gain onto the circle."),

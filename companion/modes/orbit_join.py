@@ -23,11 +23,10 @@ alone joined early on one side: over the ground with the current down the leg (t
 along it while the bow is still across: the leg then finished the turn at speed, 2.0-2.7 m off its
 line), through the water with the current against it (2.3 m); both must agree.  And only while the
 boat still turns toward the leg: joined just past it (up to 20 deg, as before) the leg had to
-reverse the orbit's turn and swung 5.5-7.9 m off; it now keeps the orbit round once more
+reverse the orbit's turn and swung 4.5-7.9 m off; it now keeps the orbit round once more
 (``docs/tuning.md``, "Leaving the hold orbit: course over ground and through the water").  The
-join happens while the boat is still turning toward the leg (the leg's LOS finishes the turn the
-same way: with the default 70 deg the
-boat leaves before the orbit's far side, 1.9-2.3 m from the point in a 0.5 m/s current), and
+leg's LOS finishes the turn the same way; with the default 70 deg the boat leaves before the
+orbit's far side, 1.9-2.3 m from the point in a 0.5 m/s current, and
 after at most one orbit (about 12 s at ``USV_HOLD_ORB_SPD`` 1 m/s on ``USV_TURN_RAD`` 2 m) it
 joins wherever it is.  AUTO entered from rest or from a straight run starts at once, as
 ArduRover's does: only a hold orbit handed over by the previous mode is continued, and only while

@@ -190,10 +190,11 @@ def test_a_non_finite_sample_is_skipped_and_leaves_the_filters_as_they_were(tmp_
 
 
 def test_a_burst_of_samples_at_one_clock_reading_keeps_the_current_estimate(tmp_path: Path) -> None:
-    """Samples handed over together (the simulator's kept until the companion attached, a serial
-    read of several sentences) carry one clock reading.  The second one is skipped and the filters
-    go on: before, it restarted them ("navigation time went from 0.02 to 0.02; filter restarted")
-    and the current estimate started again from slack water."""
+    """Samples handed over together (the simulator's kept until the companion attached; a serial
+    read of several sentences on a clock coarser than the sample interval) carry one clock
+    reading.  The second one is skipped and the filters go on: before, it restarted them
+    ("navigation time went from 0.02 to 0.02; filter restarted") and the current estimate
+    started again from slack water."""
     cfg = default_config().with_overrides({"vehicle.state_dir": str(tmp_path)})
     stage = EstimatorStage(load_companion_model(cfg), load_companion_ukf_settings(cfg),
                            current_settings=load_companion_current_settings(cfg))
