@@ -167,11 +167,6 @@ class EstimatorStage:
                 and (isfinite(nav.heading_rad) or not needs_heading)):
             self._warn(f"non-finite navigation sample at t={nav.t_s}")
             return None
-        z = np.array((u_mps, v_mps, r_radps))
-        # the engine's input: no thrust with the ignition off (a disarmed boat coasts and drifts
-        # while its mode may still ask the controller for throttle; that thrust never happened)
-        thr = applied.throttle if applied is not None and applied.ignition_on else 0.0
-        nozzle = applied.nozzle_rad if applied is not None else 0.0
         if nav.t_s == self._t_last:
             # two samples handed over at one clock reading: a burst from the link (the simulator's
             # samples kept until the companion attached; sentences read from a serial port in one
@@ -180,6 +175,11 @@ class EstimatorStage:
             # and the next sample goes on from it.
             log.debug("estimator: a second navigation sample at t=%s skipped", nav.t_s)
             return None
+        z = np.array((u_mps, v_mps, r_radps))
+        # the engine's input: no thrust with the ignition off (a disarmed boat coasts and drifts
+        # while its mode may still ask the controller for throttle; that thrust never happened)
+        thr = applied.throttle if applied is not None and applied.ignition_on else 0.0
+        nozzle = applied.nozzle_rad if applied is not None else 0.0
         if self._t_last is None or not 0.0 < nav.t_s - self._t_last <= MAX_GAP_S:
             if self._t_last is not None and nav.t_s <= self._t_last:
                 self._warn(f"navigation time went from {self._t_last} to {nav.t_s}; filter restarted")

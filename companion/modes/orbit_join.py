@@ -60,15 +60,9 @@ MIN_LEG_RADII = 5.0
 orbit the bearing to it swings round with the boat and may never line up with the course)."""
 
 
-def course_rad(nav: NavState) -> float:
-    """Course over ground, or the heading when the boat barely moves."""
-    moving = nav.speed_over_ground_mps >= COURSE_MIN_SPEED_MPS
-    return nav.course_over_ground_rad if moving else nav.heading_rad
-
-
-def course_through_water_rad(nav: NavState, current_ne_mps: tuple[float, float]) -> float:
-    """Course through the water (the velocity over ground less the current), or the heading when
-    the boat barely moves through it."""
+def course_rad(nav: NavState, current_ne_mps: tuple[float, float] = (0.0, 0.0)) -> float:
+    """Course relative to the water moving at ``current_ne_mps`` (the default: over ground), or the
+    heading when the boat barely moves relative to it."""
     north_mps, east_mps = nav.vel_north_mps - current_ne_mps[0], nav.vel_east_mps - current_ne_mps[1]
     if math.hypot(north_mps, east_mps) < COURSE_MIN_SPEED_MPS:
         return nav.heading_rad
@@ -100,18 +94,12 @@ class OrbitJoin:
         far = math.dist(self.end_ne, here) > MIN_LEG_RADII * self.orbit.radius_m
         return on_orbit and far
 
-    def _bearing_rad(self, nav: NavState) -> float:
+    def to_go_rad(self, nav: NavState, current_ne_mps: tuple[float, float] = (0.0, 0.0)) -> float:
+        """The turn (rad, the orbit's way) from the course (over ground; through the water with
+        the current ``current_ne_mps``) to the bearing of the leg's end."""
         here = self.frame.to_ne(nav.lat_deg, nav.lon_deg)
-        return distance_bearing(self.end_ne[0] - here[0], self.end_ne[1] - here[1])[1]
-
-    def to_go_rad(self, nav: NavState) -> float:
-        """The turn (rad, the orbit's way) from the course over ground to the bearing of the leg's end."""
-        return self.lam * wrap_pi(self._bearing_rad(nav) - course_rad(nav))
-
-    def to_go_through_water_rad(self, nav: NavState) -> float:
-        """The turn (rad, the orbit's way) from the course through the water to the same bearing."""
-        current = self.orbit.current()
-        return self.lam * wrap_pi(self._bearing_rad(nav) - course_through_water_rad(nav, current))
+        bearing = distance_bearing(self.end_ne[0] - here[0], self.end_ne[1] - here[1])[1]
+        return self.lam * wrap_pi(bearing - course_rad(nav, current_ne_mps))
 
     def aligned(self, nav: NavState) -> bool:
         """Whether to leave the orbit now (module docstring)."""
@@ -123,7 +111,7 @@ class OrbitJoin:
             self.turned_rad += self.lam * wrap_pi(nav.heading_rad - self._last_heading_rad)
         self._last_heading_rad = nav.heading_rad
         turning_toward = all(0.0 <= to_go <= self.tolerance_rad
-                             for to_go in (self.to_go_rad(nav), self.to_go_through_water_rad(nav)))
+                             for to_go in (self.to_go_rad(nav), self.to_go_rad(nav, self.orbit.current())))
         return turning_toward or abs(self.turned_rad) >= FULL_ORBIT_RAD
 
     def step(self, nav: NavState, dt_s: float) -> ControlTarget:
