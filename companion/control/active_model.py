@@ -33,6 +33,9 @@ yaw priority is scaled by how much of a turn guidance asks for (the larger of he
 ``turn_boost_full_error_rad`` and r_d / r_max) and capped at ``turn_throttle_max`` unless guidance
 plans the turn (its feed-forward rate ``course_rate_radps``, as when circling a point at the
 turning radius), so a heading wobble does not rev the engine and push the boat off its station.
+A hold orbit (``ControlTarget.circling``) is not capped: it is one continuous turn, and a boat the
+wind had pushed off the orbit's circle, its heading 70-100 deg off the orbit's, came round at the
+cap's 0.4 throttle with the nozzle at its stop in loops 4-6 m wide (``docs/tuning.md``).
 And the nozzle angle is solved against at least the thrust of ``yaw_inversion_min_throttle``, so
 a small yaw demand at idle does not throw the nozzle from stop to stop.
 
@@ -118,7 +121,8 @@ class ActiveModelConfig:
     turn_throttle_max: float = 0.4
     """Largest throttle the yaw row may ask for when the commanded speed is below
     ``turn_boost_speed_mps`` (unless the speed law itself asks for more); it rises to full
-    throttle with the turn rate guidance plans (``course_rate_radps``: circling a point)."""
+    throttle with the turn rate guidance plans (``course_rate_radps``: circling a point); a hold
+    orbit (``ControlTarget.circling``) is not capped."""
     turn_boost_speed_mps: float = 2.0
     yaw_inversion_min_throttle: float = 0.2
     """Below ``turn_boost_speed_mps`` the nozzle angle is solved as if the jet pushed at least
@@ -281,7 +285,7 @@ class ActiveModelController:
         if (slow_over_ground or stopping
                 or self._commanded_water_speed_mps(nav, target) < c.turn_boost_speed_mps):
             delta, thrust = self._allocate_near_standstill(w_sin, w_cos, nav, target, e_psi, r_d, u_water,
-                                                           capped=slow_over_ground)
+                                                           capped=slow_over_ground and not target.circling)
         else:
             delta, thrust = self._allocate(w_sin, w_cos)
         throttle = throttle_for_thrust(self.model, thrust, u_water)

@@ -41,6 +41,11 @@ class ControlTarget:
     water to stand still), so its integrator does not have to find the holding throttle again
     after every mode change (it is reset on entry).  A U-turn onto a leg gives the component along
     the bow as it turns (:func:`companion.guidance.waypoints.pivot_speed_mps`)."""
+    circling: bool = False
+    """The target comes from a hold orbit round a point (LOITER, GUIDED and RTL where the boat
+    cannot stand on it, :class:`~companion.modes.holding.OrbitTask`): a continuous turn, which the
+    active model gives the thrust its yaw row asks for at any commanded speed
+    (``turn_throttle_max`` does not apply; :mod:`companion.control.active_model`)."""
     stopping: bool = False
     """The speed is slowing the boat down to stop at a point, not for a corner: set by the leg
     follower on a leg with no next point (GUIDED's and RTL's legs, AUTO's last waypoint and its legs

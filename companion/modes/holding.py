@@ -115,7 +115,8 @@ class OrbitTask:
         out = self.orbit.update(self.frame.to_ne(nav.lat_deg, nav.lon_deg), self.current(), dt_s,
                                 nav.heading_rad)
         self.distance_m, self.radial_error_m = out.distance_m, out.radial_error_m
-        return ControlTarget(out.heading_rad, out.surge_speed_mps, out.turn_rate_radps, is_heading=True)
+        return ControlTarget(out.heading_rad, out.surge_speed_mps, out.turn_rate_radps, is_heading=True,
+                             circling=True)
 
 
 def _current_source(host: ModeHost) -> CurrentSource:

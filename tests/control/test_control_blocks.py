@@ -174,12 +174,14 @@ def test_active_model_keeps_steering_thrust_when_asked_to_turn_hard_and_slow_dow
     assert nu_dot[2] == pytest.approx(cfg.rate_k_per_s * r_d, rel=1e-6)
 
 
-def _low_speed_throttle(heading_err_deg: float, planned_rate_radps: float = 0.0) -> float:
+def _low_speed_throttle(heading_err_deg: float, planned_rate_radps: float = 0.0,
+                        circling: bool = False) -> float:
     """Throttle the active model asks for while nearly stopped (station keeping), with a yaw
     disturbance the idle jet cannot hold at full nozzle."""
     model = toy_model()
     ctl = ActiveModelController(model, ActiveModelConfig(), delta_nu=lambda: (0.0, 0.0, 0.6))
-    target = ControlTarget(math.radians(heading_err_deg), 0.0, planned_rate_radps, is_heading=True)
+    target = ControlTarget(math.radians(heading_err_deg), 0.0, planned_rate_radps, is_heading=True,
+                           circling=circling)
     return ctl.update(nav_from(0.0, 0, 0, 0.0, np.zeros(3)), target, 0.01, NO_SATURATION).throttle
 
 
@@ -194,6 +196,15 @@ def test_active_model_turns_at_low_speed_with_thrust_but_does_not_rev_for_a_wobb
     assert wobble < 0.1
     assert turn_round == pytest.approx(cfg.turn_throttle_max, abs=1e-6)
     assert planned > 0.6
+
+
+def test_active_model_gives_a_hold_orbit_the_thrust_to_come_round() -> None:
+    """A hold orbit is one continuous turn: the boat pushed off it with its heading 100 deg off the
+    orbit's gets the yaw row's thrust, not the low-speed cap (at the cap it came round in 4-6 m
+    loops); a 2 degree wobble on the orbit still does not rev the jet."""
+    cfg = ActiveModelConfig()
+    assert _low_speed_throttle(100.0, circling=True) > cfg.turn_throttle_max + 0.2
+    assert _low_speed_throttle(2.0, circling=True) < 0.1
 
 
 def _closed_loop(ctl: object, model: QLPVModel, disturbance: np.ndarray, heading_cmd: float,

@@ -27,19 +27,22 @@ def _pos(h: SitlHarness) -> tuple[float, float]:
 
 
 @pytest.mark.parametrize(("seed", "current", "off_deg"), [(3, "0.4,90", 180.0), (5, "0.4,0", 180.0),
-                                                        (3, "0.4,90", 340.0)])
+                                                        (3, "0.4,90", 330.0)])
 async def test_auto_from_rtls_orbit_heading_away_keeps_it_until_the_bow_points_along_the_first_leg(
         seed: int, current: str, off_deg: float) -> None:
     """0.4 m/s current (weaker than the jet's idle creep) across the northbound first leg (toward
     east) or down it (toward north): RTL orbits home.  AUTO is entered when the orbit's course over
-    ground points away from the leg (a U-turn, ``off_deg`` 180) or has just passed it (20 deg past,
-    340).  It keeps circling home (about half an orbit; once round when just past), then runs up
-    the leg from where it left the orbit.  Measured (``USV_WP_JOIN`` 70 deg), wait on the orbit and
-    largest distance from the leg's line in the next 15 s: across, U-turn 3.4 s, 1.26 m (at most
-    3.1 m from home; ``USV_WP_JOIN`` 0, the turn at once: 4.2 m); down the leg 5.5 s, 1.06 m;
-    across, just past 6.6 s, 1.25 m.  Joined on the course over ground alone, as before: down the
-    leg 4.5 s, 2.10 m (the course points along the leg while the bow is still across it); just
-    past, at once, 4.45 m (the leg reversed the orbit's turn)."""
+    ground points away from the leg (a U-turn, ``off_deg`` 180) or has just passed it (30 deg past,
+    330; at 20 deg past, inside the orbit's circle at 0.9-1.1 m/s where the course over ground is
+    noisy by +-10 deg, it once read within the join window 0.1 s after AUTO began).  It keeps
+    circling home (about half an orbit; once round when just past), then runs up the leg from
+    where it left the orbit.  Measured (``USV_WP_JOIN`` 70 deg), wait on the orbit and largest
+    distance from the leg's line in the next 15 s: across, U-turn 3.3 s, 1.34 m (at most 3.1 m
+    from home; ``USV_WP_JOIN`` 0, the turn at once: 4.2 m, before the hold orbit's full turn
+    thrust); down the leg 5.1 s, 1.14 m; across, just past 7.2 s, 1.28 m.  Joined on the course
+    over ground alone, as before the join rule of 118b8c0: down the leg 4.5 s, 2.10 m (the course
+    points along the leg while the bow is still across it); 20 deg past, at once, 4.45 m (the leg
+    reversed the orbit's turn)."""
     async with SitlHarness(seed=seed, current=current, full_stack=True) as h:
         await h.run_for(2.0)
         vehicle = h.services.vehicle
