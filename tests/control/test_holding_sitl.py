@@ -20,6 +20,18 @@ def _pos(h: SitlHarness) -> tuple[float, float]:
     return h.plant.state.north_m, h.plant.state.east_m
 
 
+async def _guided_to_the_point_and_hold(h: SitlHarness) -> None:
+    """Arm, GUIDED to 30 m N / 30 m E (within 2 m), then 30 s on the point (usv bench nav's go-to)."""
+    vehicle = h.services.vehicle
+    await h.run_for(2.0)
+    assert vehicle.arm() is None
+    assert vehicle.set_mode(15) is None
+    goal = (30.0, 30.0)
+    vehicle.guided_target = GuidedTarget(*LocalFrame(*HOME).to_lat_lon(*goal), t_s=h.ctx.clock.now_s())
+    assert await h.run_until(lambda: math.dist(_pos(h), goal) < 2.0, 150.0, 0.1)
+    await h.run_for(30.0)
+
+
 async def test_guided_arrival_and_loiter_in_a_flood_stem_the_current() -> None:
     """1.2 m/s across the go-to leg, 3 m/s wind: GUIDED arrives from downstream bow into the
     current (main: 13 m past the point and back), then LOITER keeps station from its entry."""
@@ -86,13 +98,7 @@ async def test_wind_from_ahead_holds_the_boat_on_its_point_in_a_current_weaker_t
     point (measured 0.3 m; orbiting, as before USV_HOLD_TRY: 4.3-7.1 m)."""
     async with SitlHarness(seed=1, current="0.5,270", wind="6,90", waves="0.3", full_stack=True) as h:
         vehicle = h.services.vehicle
-        await h.run_for(2.0)
-        assert vehicle.arm() is None
-        assert vehicle.set_mode(15) is None
-        goal = (30.0, 30.0)
-        vehicle.guided_target = GuidedTarget(*LocalFrame(*HOME).to_lat_lon(*goal), t_s=h.ctx.clock.now_s())
-        assert await h.run_until(lambda: math.dist(_pos(h), goal) < 2.0, 150.0, 0.1)
-        await h.run_for(30.0)
+        await _guided_to_the_point_and_hold(h)
         assert isinstance(vehicle.modes.current.task, CurrentStationTask)
         entry = _pos(h)
         assert vehicle.set_mode(5) is None
@@ -112,13 +118,7 @@ async def test_loiter_orbit_in_wind_against_a_weak_current_stays_near_its_point(
     3.0 m; with the active model's low-speed turn cap on the orbit, 7.0 and 4.0 m)."""
     async with SitlHarness(seed=3, current="0.3,90", wind="6,90", waves="0.3", full_stack=True) as h:
         vehicle = h.services.vehicle
-        await h.run_for(2.0)
-        assert vehicle.arm() is None
-        assert vehicle.set_mode(15) is None
-        goal = (30.0, 30.0)
-        vehicle.guided_target = GuidedTarget(*LocalFrame(*HOME).to_lat_lon(*goal), t_s=h.ctx.clock.now_s())
-        assert await h.run_until(lambda: math.dist(_pos(h), goal) < 2.0, 150.0, 0.1)
-        await h.run_for(30.0)
+        await _guided_to_the_point_and_hold(h)
         entry = _pos(h)
         assert vehicle.set_mode(5) is None
         dists = []
