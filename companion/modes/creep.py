@@ -112,6 +112,28 @@ keeper ferries it to and fro 10 m wide without the creep ever showing).  Not soo
 arrives heading down the current turns round under power and runs up to 8 m off first."""
 
 
+CREEP_UP_MPS = 0.1
+"""A keeper bow into the current gives up when the idling boat, more than TRIAL_PAST_M upstream
+of its point, goes on up the current at this or more (:func:`creeping_up`)."""
+
+
+def creeping_up(host: ModeHost, nav: NavState, task: CurrentStationTask, watch: CreepWatch,
+                dt_s: float) -> bool:
+    """The idling boat, more than :data:`TRIAL_PAST_M` upstream of its point, goes on up the current
+    at :data:`CREEP_UP_MPS` or more for :data:`ORBIT_AFTER_S` (net): wind against the current has
+    left a drift weaker than the idle creep, whatever the bow does.  LOITER's keeper in a current
+    stronger than the creep counts this beside the creep signature, which needs the bow on the
+    keeper's heading: a keeper clamped 70 deg off upstream, first on one side and then on the
+    other, never holds it, and in 0.8 m/s against 6 m/s of wind LOITER crept 9 m up the current
+    before the signature showed (``docs/tuning.md``).  Going up the current, not merely not being
+    set back: in 1.2 m/s against 6 m/s of wind the keeper holds within 1.2 m while the boat is
+    set back at under 0.15 m/s, which the trial's test (:func:`trial_creeping`) takes for creep."""
+    down_mps = downstream_speed_mps((nav.vel_north_mps, nav.vel_east_mps), task.current())
+    at_idle = host.control.mapper.throttle <= IDLE_THROTTLE
+    up = at_idle and down_mps <= -CREEP_UP_MPS and task.downstream_m < -TRIAL_PAST_M
+    return watch.count(up, dt_s, ORBIT_AFTER_S)
+
+
 def trial_creeping(host: ModeHost, nav: NavState, task: CurrentStationTask, watch: CreepWatch,
                    dt_s: float) -> bool:
     """A station keeping trial (:func:`~companion.modes.holding.tries_station`) fails: with the jet

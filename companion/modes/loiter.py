@@ -14,7 +14,9 @@ at once from it (:func:`companion.modes.holding.hold_task`): bow into a current 
 ``USV_HOLD_CREEP``, else a drift-compensated orbit at ``USV_TURN_RAD``, except that a current
 between ``USV_HOLD_TRY`` and ``USV_HOLD_CREEP`` is first held bow-on too (wind from ahead can
 hold the boat there), given up for the orbit when the current does not set the idling boat back
-(:func:`companion.modes.creep.trial_creeping`); in slack water with
+(:func:`companion.modes.creep.trial_creeping`); a keeper in a stronger current is given up when the
+creep signature below shows or the idling boat goes on up the current
+(:func:`companion.modes.creep.creeping_up`); in slack water with
 ``USV_HOLD_ESTOP`` 1 it stops the engine and drifts, restarting to return when the drift
 reaches ``USV_HOLD_DRIFT``.  Without one it learns:
 it starts by keeping station and switches to orbiting after about 3 s (net, leaky count) of the
@@ -33,7 +35,7 @@ from companion.control.target import ControlRequest
 from companion.messages import ModeNumber, NavState
 from companion.modes.base import ModeOutput, StandardMode
 from companion.modes.circle_item import CircleTask
-from companion.modes.creep import CreepWatch, orbit_instead, trial_creeping
+from companion.modes.creep import CreepWatch, creeping_up, orbit_instead, trial_creeping
 from companion.modes.holding import CurrentStationTask, EngineStopTask, engine_stop_task, hold_task
 from companion.modes.host import ModeHost
 from companion.modes.navigation import NavMode, StationTask, param
@@ -51,6 +53,8 @@ class LoiterMode(NavMode):
         super().__init__()
         self.point = (0.0, 0.0)
         self.watch = CreepWatch()
+        self.up_watch = CreepWatch()
+        """Evidence for :func:`~companion.modes.creep.creeping_up`, counted beside ``watch``'s."""
 
     def enter(self, host: ModeHost) -> None:
         super().enter(host)
@@ -61,6 +65,7 @@ class LoiterMode(NavMode):
                      or hold_task(host, self.point, nav, try_station=True)
                      or StationTask(host.params, self.point, nav.heading_rad))
         self.watch = CreepWatch()
+        self.up_watch = CreepWatch()
 
     def _orbit_radius_m(self, host: ModeHost) -> float:
         params = host.params
@@ -73,11 +78,14 @@ class LoiterMode(NavMode):
             self.run_task(host, nav, task, dt)  # telemetry target; the station keeper waits
             return ControlRequest.idle(ignition_on=False)
         if isinstance(task, StationTask | CurrentStationTask):
-            # the jet idles bow on its station heading and still makes headway: too weak a drift
-            # (with the estimate: wind against the current can cancel what the estimate says)
+            # the jet idles bow on its station heading and still makes headway, or (with the
+            # estimate) the idling boat goes on up the current: too weak a drift (wind against the
+            # current can cancel what the estimate says)
             trial = task if isinstance(task, CurrentStationTask) and task.trial else None
             if (trial_creeping(host, nav, trial, self.watch, dt) if trial is not None
-                    else self.watch.creeping(host, nav, task.keeper.heading_rad, dt)):
+                    else self.watch.creeping(host, nav, task.keeper.heading_rad, dt)
+                    or (isinstance(task, CurrentStationTask)
+                        and creeping_up(host, nav, task, self.up_watch, dt))):
                 if isinstance(task, CurrentStationTask):
                     self.task = orbit_instead(host, task, nav)
                 else:

@@ -13,7 +13,7 @@ from dataclasses import replace
 from companion.guidance.geo import LocalFrame, distance_bearing
 from companion.guidance.holding import HoldStrategy
 from companion.messages import CurrentEstimate, NavState
-from companion.modes.creep import CreepWatch
+from companion.modes.creep import ORBIT_AFTER_S, CreepWatch, creeping_up
 from companion.modes.holding import (
     ApproachTask,
     CurrentStationTask,
@@ -174,3 +174,39 @@ def test_a_current_stronger_than_the_creep_is_orbited_where_station_keeping_fail
     host.station_trials.failed((0.0, 0.8), 90.0)
     assert strategy(host) == HoldStrategy.ORBIT  # type: ignore[arg-type]
     assert isinstance(hold_task(host, HOME, straight), OrbitTask)  # type: ignore[arg-type]
+
+
+class _KeeperHost(_TrialHost):
+    """The hold choice's host with the idling jet's throttle (what :func:`creeping_up` reads)."""
+
+    control = _Control()
+
+
+def _creeps_up(vel_north_mps: float, seconds: float) -> bool:
+    """LOITER's keeper bow into 0.8 m/s toward north (stronger than the creep), the boat idling
+    2 m upstream of its point with its bow 70 deg off upstream, moving north at ``vel_north_mps``:
+    whether :func:`creeping_up` gives the keeper up within ``seconds``."""
+    host = _KeeperHost((0.8, 0.0))
+    host.control.mapper.throttle = 0.0
+    task = hold_task(host, HOME, _nav(100.0, -2.0, 0.0, math.pi, 0.0))  # type: ignore[arg-type]
+    assert isinstance(task, CurrentStationTask) and not task.trial
+    watch = CreepWatch()
+    bow = math.pi + math.radians(70.0)
+    for k in range(round(seconds / 0.1)):
+        t = 0.1 * k
+        nav = replace(_nav(100.0 + t, -2.0 + vel_north_mps * t, 0.0, bow, 0.0), vel_north_mps=vel_north_mps)
+        task.step(nav, 0.1)
+        if creeping_up(host, nav, task, watch, 0.1):  # type: ignore[arg-type]
+            return True
+    return False
+
+
+def test_a_keeper_the_wind_pushes_up_the_current_is_given_up_whatever_its_bow_does() -> None:
+    """0.8 m/s with 6 m/s of wind against it: the idling boat goes on up the current (0.3 m/s)
+    with its bow 70 deg off upstream, where the creep signature (bow on the keeper's heading) does
+    not count; it is given up after ORBIT_AFTER_S.  A boat the current sets back, however slowly,
+    keeps station (in 1.2 m/s against 6 m/s of wind that keeper holds within 1.2 m)."""
+    assert not _creeps_up(-0.3, 0.8 * ORBIT_AFTER_S)
+    assert _creeps_up(-0.3, 1.5 * ORBIT_AFTER_S)
+    assert not _creeps_up(0.05, 10.0 * ORBIT_AFTER_S)
+    assert not _creeps_up(-0.05, 10.0 * ORBIT_AFTER_S)
