@@ -32,6 +32,21 @@ async def _guided_to_the_point_and_hold(h: SitlHarness) -> None:
     await h.run_for(30.0)
 
 
+async def _loiter_from_here(h: SitlHarness, samples: int, every_step: type | None = None) -> list[float]:
+    """LOITER where the boat is; its distance from there every 0.5 s, ``samples`` times, with the
+    hold task checked to be ``every_step`` at each sample when given."""
+    vehicle = h.services.vehicle
+    entry = _pos(h)
+    assert vehicle.set_mode(5) is None
+    dists = []
+    for _ in range(samples):
+        await h.run_for(0.5)
+        dists.append(math.dist(_pos(h), entry))
+        if every_step is not None:
+            assert isinstance(vehicle.modes.current.task, every_step)
+    return dists
+
+
 async def test_guided_arrival_and_loiter_in_a_flood_stem_the_current() -> None:
     """1.2 m/s across the go-to leg, 3 m/s wind: GUIDED arrives from downstream bow into the
     current (main: 13 m past the point and back), then LOITER keeps station from its entry."""
@@ -100,13 +115,7 @@ async def test_wind_from_ahead_holds_the_boat_on_its_point_in_a_current_weaker_t
         vehicle = h.services.vehicle
         await _guided_to_the_point_and_hold(h)
         assert isinstance(vehicle.modes.current.task, CurrentStationTask)
-        entry = _pos(h)
-        assert vehicle.set_mode(5) is None
-        dists = []
-        for _ in range(120):
-            await h.run_for(0.5)
-            dists.append(math.dist(_pos(h), entry))
-            assert isinstance(vehicle.modes.current.task, CurrentStationTask)
+        dists = await _loiter_from_here(h, 120, every_step=CurrentStationTask)
         assert max(dists) < 1.0
 
 
@@ -119,12 +128,7 @@ async def test_loiter_orbit_in_wind_against_a_weak_current_stays_near_its_point(
     async with SitlHarness(seed=3, current="0.3,90", wind="6,90", waves="0.3", full_stack=True) as h:
         vehicle = h.services.vehicle
         await _guided_to_the_point_and_hold(h)
-        entry = _pos(h)
-        assert vehicle.set_mode(5) is None
-        dists = []
-        for _ in range(240):
-            await h.run_for(0.5)
-            dists.append(math.dist(_pos(h), entry))
+        dists = await _loiter_from_here(h, 240)
         assert isinstance(vehicle.modes.current.task, OrbitTask)
         assert max(dists) < 5.0 and max(dists[120:]) < 3.5
 
