@@ -35,7 +35,7 @@ plans the turn (its feed-forward rate ``course_rate_radps``, as when circling a 
 turning radius), so a heading wobble does not rev the engine and push the boat off its station.
 A hold orbit (``ControlTarget.circling``) is not capped: it is one continuous turn, and a boat the
 wind had pushed off the orbit's circle, its heading 70-100 deg off the orbit's, came round at the
-cap's 0.4 throttle with the nozzle at its stop in loops 4-6 m wide (``docs/tuning.md``).
+cap's 0.4 throttle with the nozzle at its stop in loops 6-8 m wide (``docs/tuning.md``).
 And the nozzle angle is solved against at least the thrust of ``yaw_inversion_min_throttle``, so
 a small yaw demand at idle does not throw the nozzle from stop to stop.
 
