@@ -42,6 +42,8 @@ class CreepWatch:
 
     def __init__(self) -> None:
         self.evidence = LeakyEvidence()
+        self.running_up = LeakyEvidence()
+        """A station keeping trial's boat running on up the current (:func:`trial_creeping`)."""
         self._closest_m = math.inf
         self._closest_t_s = 0.0
 
@@ -112,6 +114,17 @@ keeper ferries it to and fro 10 m wide without the creep ever showing).  Not soo
 arrives heading down the current turns round under power and runs up to 8 m off first."""
 
 
+TRIAL_UP_MPS = 0.3
+TRIAL_UP_S = 1.5
+"""A station keeping trial also fails at once when the idling boat, more than TRIAL_PAST_M upstream
+of its point, runs on up the current at TRIAL_UP_MPS or more for TRIAL_UP_S (net): the drift does
+not even slow it.  Arriving at 1.6-2.4 m/s with wind against the current, the boat ran on up at
+1.1-1.5 m/s, and the trial, given up only after 3 s of not being set back, let it coast 5-6 m
+past its point.  Replayed on the truth logs of the tuning grid's 24 GUIDED trials, the rule fired
+in 16 of the 18 that failed (2-6 m from the point) and in none of the 6 that held
+(``docs/tuning.md``)."""
+
+
 CREEP_UP_MPS = 0.1
 """A keeper bow into the current gives up when the idling boat, more than TRIAL_PAST_M upstream
 of its point, goes on up the current at this or more (:func:`creeping_up`)."""
@@ -139,7 +152,8 @@ def trial_creeping(host: ModeHost, nav: NavState, task: CurrentStationTask, watc
     """A station keeping trial (:func:`~companion.modes.holding.tries_station`) fails: with the jet
     idling more than :data:`TRIAL_PAST_M` upstream of its point, the boat is not set back down the
     current (:data:`SET_BACK_MPS`) for :data:`ORBIT_AFTER_S` (net): it creeps on up, or the keeper
-    ferries it to and fro across; or it is not standing on its point after :data:`TRIAL_SETTLE_S`.
+    ferries it to and fro across; or it runs on up at :data:`TRIAL_UP_MPS` for :data:`TRIAL_UP_S`
+    (net); or it is not standing on its point after :data:`TRIAL_SETTLE_S`.
     Not the creep signature of a keeper on its point: arriving at 1-2 m/s, the boat runs a few
     metres up past the point, and the keeper ferries it back down at 0.4 m/s with its bow 70 deg
     off upstream and the jet idling, which that signature takes for creep."""
@@ -149,5 +163,8 @@ def trial_creeping(host: ModeHost, nav: NavState, task: CurrentStationTask, watc
         return True
     down_mps = downstream_speed_mps((nav.vel_north_mps, nav.vel_east_mps), task.current())
     at_idle = host.control.mapper.throttle <= IDLE_THROTTLE
-    creep = at_idle and down_mps < SET_BACK_MPS and task.downstream_m < -TRIAL_PAST_M
-    return watch.count(creep, dt_s, ORBIT_AFTER_S)
+    above = at_idle and task.downstream_m < -TRIAL_PAST_M
+    if watch.running_up.add(above and down_mps <= -TRIAL_UP_MPS, dt_s) > TRIAL_UP_S:
+        watch.running_up.seconds = 0.0
+        return True
+    return watch.count(above and down_mps < SET_BACK_MPS, dt_s, ORBIT_AFTER_S)

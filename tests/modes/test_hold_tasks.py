@@ -8,12 +8,13 @@ evidence that a station keeper cannot hold the point (:class:`~companion.modes.h
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import replace
 
 from companion.guidance.geo import LocalFrame, distance_bearing
 from companion.guidance.holding import HoldStrategy
 from companion.messages import CurrentEstimate, NavState
-from companion.modes.creep import ORBIT_AFTER_S, CreepWatch, creeping_up
+from companion.modes.creep import ORBIT_AFTER_S, TRIAL_UP_S, CreepWatch, creeping_up, trial_creeping
 from companion.modes.holding import (
     ApproachTask,
     CurrentStationTask,
@@ -210,3 +211,36 @@ def test_a_keeper_the_wind_pushes_up_the_current_is_given_up_whatever_its_bow_do
     assert _creeps_up(-0.3, 1.5 * ORBIT_AFTER_S)
     assert not _creeps_up(0.05, 10.0 * ORBIT_AFTER_S)
     assert not _creeps_up(-0.05, 10.0 * ORBIT_AFTER_S)
+
+
+def _trial_given_up_after_s(speed_up_mps: Callable[[float], float], seconds: float) -> float | None:
+    """A station keeping trial in 0.4 m/s toward north (weaker than the creep), the idling boat
+    1.5 m upstream of its point and going up the current (south) at ``speed_up_mps(t)``: when
+    :func:`trial_creeping` gives it up (s), ``None`` if not within ``seconds``."""
+    host = _KeeperHost((0.4, 0.0))
+    host.control.mapper.throttle = 0.0
+    task = hold_task(host, HOME, _nav(100.0, -1.5, 0.0, math.pi, 1.0), try_station=True)  # type: ignore[arg-type]
+    assert isinstance(task, CurrentStationTask) and task.trial
+    watch = CreepWatch()
+    north_m = -1.5
+    for k in range(round(seconds / 0.1)):
+        t = 0.1 * k
+        v = speed_up_mps(t)
+        north_m -= 0.1 * v
+        nav = replace(_nav(100.0 + t, north_m, 0.0, math.pi, v), vel_north_mps=-v)
+        task.step(nav, 0.1)
+        if trial_creeping(host, nav, task, watch, 0.1):  # type: ignore[arg-type]
+            return t
+    return None
+
+
+def test_a_trial_the_boat_runs_on_up_the_current_from_is_given_up_at_once() -> None:
+    """Arriving fast with wind against a weak current, the idling boat runs on up the current past
+    its point at 1.2 m/s: the trial is given up after TRIAL_UP_S (before: after ORBIT_AFTER_S of
+    not being set back, 5-6 m past the point).  A boat that slows and is set back, or creeps up
+    slowly (0.2 m/s), is judged as before: only after ORBIT_AFTER_S, or never."""
+    running = _trial_given_up_after_s(lambda t: 1.2, 10.0)
+    assert running is not None and running <= TRIAL_UP_S + 0.3 < ORBIT_AFTER_S
+    creeping = _trial_given_up_after_s(lambda t: 0.2, 10.0)
+    assert creeping is not None and creeping >= ORBIT_AFTER_S - 0.2
+    assert _trial_given_up_after_s(lambda t: 1.2 - 1.5 * t, 10.0) is None  # stopped and set back
