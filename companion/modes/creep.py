@@ -58,10 +58,13 @@ class CreepWatch:
             return False
         return nav.t_s - self._closest_t_s > STALL_S
 
-    def count(self, failing: bool, dt_s: float, after_s: float) -> bool:
-        """Leaky evidence counter: True (and reset) after ``after_s`` of net failure."""
-        if self.evidence.add(failing, dt_s) > after_s:
-            self.evidence.seconds = 0.0
+    def count(self, failing: bool, dt_s: float, after_s: float,
+              evidence: LeakyEvidence | None = None) -> bool:
+        """Leaky evidence counter (:attr:`evidence`, or the one given): True (and reset) after
+        ``after_s`` of net failure."""
+        counter = self.evidence if evidence is None else evidence
+        if counter.add(failing, dt_s) > after_s:
+            counter.seconds = 0.0
             return True
         return False
 
@@ -164,7 +167,6 @@ def trial_creeping(host: ModeHost, nav: NavState, task: CurrentStationTask, watc
     down_mps = downstream_speed_mps((nav.vel_north_mps, nav.vel_east_mps), task.current())
     at_idle = host.control.mapper.throttle <= IDLE_THROTTLE
     above = at_idle and task.downstream_m < -TRIAL_PAST_M
-    if watch.running_up.add(above and down_mps <= -TRIAL_UP_MPS, dt_s) > TRIAL_UP_S:
-        watch.running_up.seconds = 0.0
+    if watch.count(above and down_mps <= -TRIAL_UP_MPS, dt_s, TRIAL_UP_S, watch.running_up):
         return True
     return watch.count(above and down_mps < SET_BACK_MPS, dt_s, ORBIT_AFTER_S)
