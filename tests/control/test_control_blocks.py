@@ -200,7 +200,7 @@ def test_active_model_turns_at_low_speed_with_thrust_but_does_not_rev_for_a_wobb
 
 def test_active_model_gives_a_hold_orbit_the_thrust_to_come_round() -> None:
     """A hold orbit is one continuous turn: the boat pushed off it with its heading 100 deg off the
-    orbit's gets the yaw row's thrust, not the low-speed cap (at the cap it came round in 4-6 m
+    orbit's gets the yaw row's thrust, not the low-speed cap (at the cap it came round in 6-8 m
     loops); a 2 degree wobble on the orbit still does not rev the jet."""
     cfg = ActiveModelConfig()
     assert _low_speed_throttle(100.0, circling=True) > cfg.turn_throttle_max + 0.2

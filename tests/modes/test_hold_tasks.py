@@ -183,23 +183,38 @@ class _KeeperHost(_TrialHost):
     control = _Control()
 
 
+def _idling_given_up_after_s(current_ne_mps: tuple[float, float], try_station: bool, start_north_m: float,
+                             bow_rad: float, vel_north_mps: Callable[[float], float], seconds: float,
+                             rule: Callable[..., bool], along_bow: bool) -> float | None:
+    """The hold on the point (``try_station``: a station keeping trial) in ``current_ne_mps``, the
+    jet idling, the boat ``start_north_m`` north of the point with its bow at ``bow_rad``, moving
+    north at ``vel_north_mps(t)`` (``along_bow``: that is its surge; else it idles sideways, surge 0):
+    when ``rule`` (:func:`creeping_up` or :func:`trial_creeping`)
+    gives the hold up (s), ``None`` if not within ``seconds``."""
+    host = _KeeperHost(current_ne_mps)
+    host.control.mapper.throttle = 0.0
+    task = hold_task(host, HOME, _nav(100.0, start_north_m, 0.0, math.pi, 1.0), try_station)  # type: ignore[arg-type]
+    assert isinstance(task, CurrentStationTask) and task.trial is try_station
+    watch = CreepWatch()
+    north_m = start_north_m
+    for k in range(round(seconds / 0.1)):
+        t = 0.1 * k
+        v = vel_north_mps(t)
+        north_m += 0.1 * v
+        nav = replace(_nav(100.0 + t, north_m, 0.0, bow_rad, abs(v) if along_bow else 0.0), vel_north_mps=v,
+                      vel_east_mps=0.0)
+        task.step(nav, 0.1)
+        if rule(host, nav, task, watch, 0.1):
+            return t
+    return None
+
+
 def _creeps_up(vel_north_mps: float, seconds: float) -> bool:
     """LOITER's keeper bow into 0.8 m/s toward north (stronger than the creep), the boat idling
     2 m upstream of its point with its bow 70 deg off upstream, moving north at ``vel_north_mps``:
     whether :func:`creeping_up` gives the keeper up within ``seconds``."""
-    host = _KeeperHost((0.8, 0.0))
-    host.control.mapper.throttle = 0.0
-    task = hold_task(host, HOME, _nav(100.0, -2.0, 0.0, math.pi, 0.0))  # type: ignore[arg-type]
-    assert isinstance(task, CurrentStationTask) and not task.trial
-    watch = CreepWatch()
-    bow = math.pi + math.radians(70.0)
-    for k in range(round(seconds / 0.1)):
-        t = 0.1 * k
-        nav = replace(_nav(100.0 + t, -2.0 + vel_north_mps * t, 0.0, bow, 0.0), vel_north_mps=vel_north_mps)
-        task.step(nav, 0.1)
-        if creeping_up(host, nav, task, watch, 0.1):  # type: ignore[arg-type]
-            return True
-    return False
+    return _idling_given_up_after_s((0.8, 0.0), False, -2.0, math.pi + math.radians(70.0),
+                                    lambda t: vel_north_mps, seconds, creeping_up, False) is not None
 
 
 def test_a_keeper_the_wind_pushes_up_the_current_is_given_up_whatever_its_bow_does() -> None:
@@ -215,23 +230,10 @@ def test_a_keeper_the_wind_pushes_up_the_current_is_given_up_whatever_its_bow_do
 
 def _trial_given_up_after_s(speed_up_mps: Callable[[float], float], seconds: float) -> float | None:
     """A station keeping trial in 0.4 m/s toward north (weaker than the creep), the idling boat
-    1.5 m upstream of its point and going up the current (south) at ``speed_up_mps(t)``: when
-    :func:`trial_creeping` gives it up (s), ``None`` if not within ``seconds``."""
-    host = _KeeperHost((0.4, 0.0))
-    host.control.mapper.throttle = 0.0
-    task = hold_task(host, HOME, _nav(100.0, -1.5, 0.0, math.pi, 1.0), try_station=True)  # type: ignore[arg-type]
-    assert isinstance(task, CurrentStationTask) and task.trial
-    watch = CreepWatch()
-    north_m = -1.5
-    for k in range(round(seconds / 0.1)):
-        t = 0.1 * k
-        v = speed_up_mps(t)
-        north_m -= 0.1 * v
-        nav = replace(_nav(100.0 + t, north_m, 0.0, math.pi, v), vel_north_mps=-v)
-        task.step(nav, 0.1)
-        if trial_creeping(host, nav, task, watch, 0.1):  # type: ignore[arg-type]
-            return t
-    return None
+    1.5 m upstream of its point, bow upstream, going up the current (south) at ``speed_up_mps(t)``:
+    when :func:`trial_creeping` gives it up (s), ``None`` if not within ``seconds``."""
+    return _idling_given_up_after_s((0.4, 0.0), True, -1.5, math.pi, lambda t: -speed_up_mps(t), seconds,
+                                    trial_creeping, True)
 
 
 def test_a_trial_the_boat_runs_on_up_the_current_from_is_given_up_at_once() -> None:
