@@ -44,8 +44,6 @@ class CreepWatch:
         self.evidence = LeakyEvidence()
         self.running_up = LeakyEvidence()
         """A station keeping trial's boat running on up the current (:func:`trial_creeping`)."""
-        self.going_up = LeakyEvidence()
-        """A keeper's idling boat going on up the current (:func:`creeping_up`)."""
         self._closest_m = math.inf
         self._closest_t_s = 0.0
 
@@ -149,7 +147,7 @@ def creeping_up(host: ModeHost, nav: NavState, task: CurrentStationTask, watch: 
     down_mps = downstream_speed_mps((nav.vel_north_mps, nav.vel_east_mps), task.current())
     at_idle = host.control.mapper.throttle <= IDLE_THROTTLE
     up = at_idle and down_mps <= -CREEP_UP_MPS and task.downstream_m < -TRIAL_PAST_M
-    return watch.count(up, dt_s, ORBIT_AFTER_S, watch.going_up)
+    return watch.count(up, dt_s, ORBIT_AFTER_S)
 
 
 def trial_creeping(host: ModeHost, nav: NavState, task: CurrentStationTask, watch: CreepWatch,

@@ -53,6 +53,8 @@ class LoiterMode(NavMode):
         super().__init__()
         self.point = (0.0, 0.0)
         self.watch = CreepWatch()
+        self.up_watch = CreepWatch()
+        """Evidence for :func:`~companion.modes.creep.creeping_up`, counted beside ``watch``'s."""
 
     def enter(self, host: ModeHost) -> None:
         super().enter(host)
@@ -63,6 +65,7 @@ class LoiterMode(NavMode):
                      or hold_task(host, self.point, nav, try_station=True)
                      or StationTask(host.params, self.point, nav.heading_rad))
         self.watch = CreepWatch()
+        self.up_watch = CreepWatch()
 
     def _orbit_radius_m(self, host: ModeHost) -> float:
         params = host.params
@@ -82,7 +85,7 @@ class LoiterMode(NavMode):
             if (trial_creeping(host, nav, trial, self.watch, dt) if trial is not None
                     else self.watch.creeping(host, nav, task.keeper.heading_rad, dt)
                     or (isinstance(task, CurrentStationTask)
-                        and creeping_up(host, nav, task, self.watch, dt))):
+                        and creeping_up(host, nav, task, self.up_watch, dt))):
                 if isinstance(task, CurrentStationTask):
                     self.task = orbit_instead(host, task, nav)
                 else:
