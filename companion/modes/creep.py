@@ -28,6 +28,17 @@ bow is within ON_HEADING_RAD of the station heading and the boat still makes mor
 of headway, for ORBIT_AFTER_S net (leaky count)."""
 
 
+CARRIED_DOWN_MPS = 0.4
+"""A boat the current carries down at this or more (over ground) is not creeping, whatever its
+headway along the bow (:meth:`CreepWatch.creeping` for GUIDED's and RTL's keeper): from upstream
+the keeper lets the current set the idling boat back onto its point with the bow clamped 70 deg
+off upstream, and its headway across the current showed as creep.  RTL from 42 m up a 1.2 m/s
+current (3 m/s of wind across) was given up for the orbit 13 m out, and the orbit swung 9-11 m off
+home; carried down at 0.7 m/s, the keeper now brings it home.  Not less: in 0.8 m/s with 6 m/s of
+wind against it the boat was carried down at 0.1-0.3 m/s, and counted at 0.15 m/s the keeper
+ferried it 4-6 m up the current of its point for 150 s without reaching it (``docs/tuning.md``)."""
+
+
 STALL_FAR_M = 4.0
 STALL_GAIN_M = 1.0
 STALL_S = 20.0
@@ -69,11 +80,15 @@ class CreepWatch:
         return False
 
     def creeping(self, host: ModeHost, nav: NavState, station_heading_rad: float, dt_s: float,
-                 after_s: float = ORBIT_AFTER_S) -> bool:
-        """True once the creep signature has lasted ``after_s`` (net)."""
+                 after_s: float = ORBIT_AFTER_S, current_ne_mps: tuple[float, float] | None = None) -> bool:
+        """True once the creep signature has lasted ``after_s`` (net); with ``current_ne_mps``, not
+        while the current carries the boat down at :data:`CARRIED_DOWN_MPS` or more."""
         at_idle = host.control.mapper.throttle <= IDLE_THROTTLE
         on_heading = abs(wrap_pi(nav.heading_rad - station_heading_rad)) < ON_HEADING_RAD
-        return self.count(at_idle and on_heading and nav.u_mps > CREEP_MPS, dt_s, after_s)
+        carried_down = current_ne_mps is not None and downstream_speed_mps(
+            (nav.vel_north_mps, nav.vel_east_mps), current_ne_mps) >= CARRIED_DOWN_MPS
+        return self.count(at_idle and on_heading and nav.u_mps > CREEP_MPS and not carried_down,
+                          dt_s, after_s)
 
 
 def orbit_instead(host: ModeHost, task: CurrentStationTask, nav: NavState) -> OrbitTask:
@@ -99,7 +114,8 @@ def orbit_if_creeping(host: ModeHost, nav: NavState, task: TaskT, watch: CreepWa
     point; LOITER runs its own choice); a keeper tried in a weak current, as :func:`trial_creeping`
     says."""
     if isinstance(task, CurrentStationTask) and (trial_creeping(host, nav, task, watch, dt_s) or (
-            not task.trial and watch.creeping(host, nav, task.keeper.heading_rad, dt_s, POINT_ORBIT_AFTER_S))
+            not task.trial and watch.creeping(host, nav, task.keeper.heading_rad, dt_s, POINT_ORBIT_AFTER_S,
+                                              task.current()))
             or watch.stalled(host, nav, task.distance_m)):
         return orbit_instead(host, task, nav)
     return task

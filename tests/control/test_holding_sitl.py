@@ -228,3 +228,25 @@ async def test_a_station_trial_the_boat_runs_past_is_given_up_near_the_point() -
                 given_up_m = dists[-1]
         assert tried and given_up_m is not None and given_up_m < 5.5
         assert max(dists) < 7.5
+
+
+async def test_rtl_from_upstream_in_a_strong_current_keeps_station_down_onto_home() -> None:
+    """1.2 m/s toward S with 3 m/s of wind from E: RTL from the go-to point, 42 m up the current,
+    hands over to the station keeper at once, which lets the current set the idling boat back onto
+    home with its bow clamped 70 deg off upstream.  Its headway along that bow is across the
+    current, not creep: the keeper is never given up for the orbit, and the boat stays within 6 m
+    of home after it first comes within 2 m (measured 4.6 m; when that headway counted as creep,
+    the keeper was given up for the orbit 13 m out and the boat swung 11.0 m off home)."""
+    async with SitlHarness(seed=102, current="1.2,180", wind="3,90", waves="0.15", full_stack=True) as h:
+        vehicle = h.services.vehicle
+        await _guided_to_the_point_and_hold(h)
+        assert vehicle.set_mode(ModeNumber.RTL) is None
+        orbited, arrived, after_m = False, False, 0.0
+        for _ in range(1500):  # 75 s
+            await h.run_for(0.05)
+            orbited = orbited or isinstance(vehicle.modes.current.task, OrbitTask)
+            home_m = math.hypot(*_pos(h))
+            arrived = arrived or home_m <= 2.0
+            after_m = max(after_m, home_m) if arrived else 0.0
+        assert arrived and not orbited
+        assert after_m < 6.0
