@@ -29,14 +29,10 @@ of headway, for ORBIT_AFTER_S net (leaky count)."""
 
 
 CARRIED_DOWN_MPS = 0.4
-"""A boat the current carries down at this or more (over ground) is not creeping, whatever its
-headway along the bow (:meth:`CreepWatch.creeping` for GUIDED's and RTL's keeper): from upstream
-the keeper lets the current set the idling boat back onto its point with the bow clamped 70 deg
-off upstream, and its headway across the current showed as creep.  RTL from 42 m up a 1.2 m/s
-current (3 m/s of wind across) was given up for the orbit 13 m out, and the orbit swung 9-11 m off
-home; carried down at 0.7 m/s, the keeper now brings it home.  Not less: in 0.8 m/s with 6 m/s of
-wind against it the boat was carried down at 0.1-0.3 m/s, and counted at 0.15 m/s the keeper
-ferried it 4-6 m up the current of its point for 150 s without reaching it (``docs/tuning.md``)."""
+CARRIED_FROM_M = 5.0
+"""A boat the current carries down at CARRIED_DOWN_MPS or more (over ground) from more than
+CARRIED_FROM_M up the current of its point is not creeping, whatever its headway along the bow
+(:func:`carried_down`, GUIDED's and RTL's keeper)."""
 
 
 STALL_FAR_M = 4.0
@@ -80,15 +76,12 @@ class CreepWatch:
         return False
 
     def creeping(self, host: ModeHost, nav: NavState, station_heading_rad: float, dt_s: float,
-                 after_s: float = ORBIT_AFTER_S, current_ne_mps: tuple[float, float] | None = None) -> bool:
-        """True once the creep signature has lasted ``after_s`` (net); with ``current_ne_mps``, not
-        while the current carries the boat down at :data:`CARRIED_DOWN_MPS` or more."""
+                 after_s: float = ORBIT_AFTER_S, excused: bool = False) -> bool:
+        """True once the creep signature has lasted ``after_s`` (net), not counting samples the
+        caller ``excused`` (:func:`carried_down`)."""
         at_idle = host.control.mapper.throttle <= IDLE_THROTTLE
         on_heading = abs(wrap_pi(nav.heading_rad - station_heading_rad)) < ON_HEADING_RAD
-        carried_down = current_ne_mps is not None and downstream_speed_mps(
-            (nav.vel_north_mps, nav.vel_east_mps), current_ne_mps) >= CARRIED_DOWN_MPS
-        return self.count(at_idle and on_heading and nav.u_mps > CREEP_MPS and not carried_down,
-                          dt_s, after_s)
+        return self.count(at_idle and on_heading and nav.u_mps > CREEP_MPS and not excused, dt_s, after_s)
 
 
 def orbit_instead(host: ModeHost, task: CurrentStationTask, nav: NavState) -> OrbitTask:
@@ -98,6 +91,20 @@ def orbit_instead(host: ModeHost, task: CurrentStationTask, nav: NavState) -> Or
     host.station_trials.failed(current, nav.t_s)
     return OrbitTask(host.params, task.point, task.current.source, current,
                      orbit_clockwise(nav.heading_rad, nav.r_radps, current))
+
+
+def carried_down(nav: NavState, task: CurrentStationTask) -> bool:
+    """The current carries the boat down onto its point: at :data:`CARRIED_DOWN_MPS` or more over
+    ground, from more than :data:`CARRIED_FROM_M` up the current of it.  From upstream, GUIDED's
+    and RTL's keeper lets the current set the idling boat back onto its point with the bow clamped
+    70 deg off upstream, and its headway across the current met the creep signature: RTL from 42 m
+    up a 1.2 m/s current (3 m/s of wind across) was given up for the orbit 13 m out, and the orbit
+    swung 9-11 m off home.  Not nearer the point, nor slower: in 0.8 m/s with 6 m/s of wind against
+    it the keeper ferried the boat to and fro 2-6 m up the current of its point, carried down at
+    0.1-0.5 m/s, for 120-150 s without reaching it, where the creep signature gives it up for the
+    orbit (``docs/tuning.md``)."""
+    down_mps = downstream_speed_mps((nav.vel_north_mps, nav.vel_east_mps), task.current())
+    return down_mps >= CARRIED_DOWN_MPS and task.downstream_m < -CARRIED_FROM_M
 
 
 TaskT = TypeVar("TaskT")
@@ -115,7 +122,7 @@ def orbit_if_creeping(host: ModeHost, nav: NavState, task: TaskT, watch: CreepWa
     says."""
     if isinstance(task, CurrentStationTask) and (trial_creeping(host, nav, task, watch, dt_s) or (
             not task.trial and watch.creeping(host, nav, task.keeper.heading_rad, dt_s, POINT_ORBIT_AFTER_S,
-                                              task.current()))
+                                              carried_down(nav, task)))
             or watch.stalled(host, nav, task.distance_m)):
         return orbit_instead(host, task, nav)
     return task

@@ -256,22 +256,22 @@ def test_a_trial_the_boat_runs_on_up_the_current_from_is_given_up_at_once() -> N
     assert _trial_given_up_after_s(lambda t: 1.2 - 1.5 * t, 10.0) is None  # stopped and set back
 
 
-def _keeper_from_upstream_given_up_after_s(vel_ne_mps: Callable[[float], tuple[float, float]],
-                                          seconds: float) -> float | None:
+def _keeper_from_upstream_given_up_after_s(vel_ne_mps: Callable[[float, float], tuple[float, float]],
+                                          start_north_m: float, seconds: float) -> float | None:
     """RTL's station keeper in 1.2 m/s toward south (stronger than the creep), the idling boat
-    20 m up the current and 8 m east of its point on the keeper's heading (clamped 70 deg off
-    upstream to ferry it across) with 0.8 m/s of headway along the bow, moving over ground at
-    ``vel_ne_mps(bow_rad)``: when :func:`orbit_if_creeping` gives the keeper up for the orbit (s),
-    ``None`` if not within ``seconds``."""
+    ``start_north_m`` up the current and 8 m east of its point on the keeper's heading (clamped
+    70 deg off upstream to ferry it across) with 0.8 m/s of headway along the bow, moving over
+    ground at ``vel_ne_mps(t, bow_rad)``: when :func:`orbit_if_creeping` gives the keeper up for the
+    orbit (s), ``None`` if not within ``seconds``."""
     host = _KeeperHost((-1.2, 0.0))
     host.control.mapper.throttle = 0.0
-    north_m, east_m = 20.0, 8.0
+    north_m, east_m = start_north_m, 8.0
     task = hold_task(host, HOME, _nav(100.0, north_m, east_m, 0.0, 0.5))  # type: ignore[arg-type]
     assert isinstance(task, CurrentStationTask) and not task.trial
     watch = CreepWatch()
     for k in range(round(seconds / 0.1)):
         t, bow_rad = 0.1 * k, task.keeper.heading_rad
-        vel = vel_ne_mps(bow_rad)
+        vel = vel_ne_mps(t, bow_rad)
         north_m, east_m = north_m + 0.1 * vel[0], east_m + 0.1 * vel[1]
         nav = replace(_nav(100.0 + t, north_m, east_m, bow_rad, 0.8),
                       vel_north_mps=vel[0], vel_east_mps=vel[1])
@@ -281,19 +281,26 @@ def _keeper_from_upstream_given_up_after_s(vel_ne_mps: Callable[[float], tuple[f
     return None
 
 
-def test_a_keeper_the_current_sets_back_onto_its_point_is_not_creeping() -> None:
-    """From upstream the keeper lets a strong current set the idling boat back onto its point, the
-    bow clamped 70 deg off upstream: its headway along the bow is across the current, and while
-    the current carries the boat down (0.7 m/s here) that is not creep (RTL from 42 m up a
-    1.2 m/s current: given up 13 m out before, and the orbit swung 11 m off home).  The same
-    headway with the boat going along its bow, on up the current, is creep: given up after
-    POINT_ORBIT_AFTER_S."""
-    def set_back(bow_rad: float) -> tuple[float, float]:
+def test_a_keeper_the_current_carries_down_onto_its_point_is_not_creeping() -> None:
+    """From upstream the keeper lets a strong current carry the idling boat down onto its point,
+    the bow clamped 70 deg off upstream: its headway along the bow is across the current, and
+    while the current carries the boat down (0.7 m/s here, from 20 m up) that is not creep (RTL
+    from 42 m up a 1.2 m/s current: given up 13 m out before, and the orbit swung 11 m off home).
+    The same headway with the boat going along its bow, on up the current, is creep: given up
+    after POINT_ORBIT_AFTER_S; and so is a keeper ferrying to and fro 3 m up the current of its
+    point, carried down and back up at 0.5 m/s by turns (0.8 m/s with 6 m/s of wind against it:
+    for 120 s it never reached its point when those spells did not count)."""
+    def carried_down(t: float, bow_rad: float) -> tuple[float, float]:
         return (-0.7, 0.8 * math.sin(bow_rad))
 
-    def along_bow(bow_rad: float) -> tuple[float, float]:
+    def along_bow(t: float, bow_rad: float) -> tuple[float, float]:
         return (0.8 * math.cos(bow_rad), 0.8 * math.sin(bow_rad))
 
-    assert _keeper_from_upstream_given_up_after_s(set_back, 2.0 * POINT_ORBIT_AFTER_S) is None
-    creeping = _keeper_from_upstream_given_up_after_s(along_bow, 2.0 * POINT_ORBIT_AFTER_S)
+    def bobbing(t: float, bow_rad: float) -> tuple[float, float]:
+        return (-0.5 if int(t) % 2 == 0 else 0.5, 0.8 * math.sin(bow_rad))
+
+    assert _keeper_from_upstream_given_up_after_s(carried_down, 20.0, 2.0 * POINT_ORBIT_AFTER_S) is None
+    creeping = _keeper_from_upstream_given_up_after_s(along_bow, 20.0, 2.0 * POINT_ORBIT_AFTER_S)
     assert creeping is not None and creeping >= POINT_ORBIT_AFTER_S - 0.2
+    ferrying = _keeper_from_upstream_given_up_after_s(bobbing, 3.0, 3.0 * POINT_ORBIT_AFTER_S)
+    assert ferrying is not None and ferrying <= 1.5 * POINT_ORBIT_AFTER_S
