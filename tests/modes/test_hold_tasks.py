@@ -284,7 +284,7 @@ def _keeper_from_upstream_given_up_after_s(vel_ne_mps: Callable[[float, float], 
 def test_a_keeper_the_current_carries_down_onto_its_point_is_not_creeping() -> None:
     """From upstream the keeper lets a strong current carry the idling boat down onto its point,
     the bow clamped 70 deg off upstream: its headway along the bow is across the current, and
-    while the current carries the boat down (0.7 m/s here, from 20 m up) that is not creep (RTL
+    while the current carries the boat down (0.7 m/s here, from 30 m up) that is not creep (RTL
     from 42 m up a 1.2 m/s current: given up 13 m out before, and the orbit swung 11 m off home).
     The same headway with the boat going along its bow, on up the current, is creep: given up
     after POINT_ORBIT_AFTER_S; and so is a keeper ferrying to and fro 3 m up the current of its
@@ -299,8 +299,8 @@ def test_a_keeper_the_current_carries_down_onto_its_point_is_not_creeping() -> N
     def bobbing(t: float, bow_rad: float) -> tuple[float, float]:
         return (-0.5 if int(t) % 2 == 0 else 0.5, 0.8 * math.sin(bow_rad))
 
-    assert _keeper_from_upstream_given_up_after_s(carried_down, 20.0, 2.0 * POINT_ORBIT_AFTER_S) is None
-    creeping = _keeper_from_upstream_given_up_after_s(along_bow, 20.0, 2.0 * POINT_ORBIT_AFTER_S)
+    assert _keeper_from_upstream_given_up_after_s(carried_down, 30.0, 2.0 * POINT_ORBIT_AFTER_S) is None
+    creeping = _keeper_from_upstream_given_up_after_s(along_bow, 30.0, 2.0 * POINT_ORBIT_AFTER_S)
     assert creeping is not None and creeping >= POINT_ORBIT_AFTER_S - 0.2
     ferrying = _keeper_from_upstream_given_up_after_s(bobbing, 3.0, 3.0 * POINT_ORBIT_AFTER_S)
     assert ferrying is not None and ferrying <= 1.5 * POINT_ORBIT_AFTER_S
