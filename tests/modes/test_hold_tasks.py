@@ -290,7 +290,7 @@ def test_a_keeper_the_current_carries_down_onto_its_point_is_not_creeping() -> N
     after POINT_ORBIT_AFTER_S; and so is a keeper ferrying to and fro 3 m up the current of its
     point, carried down and back up at 0.5 m/s by turns (0.8 m/s with 6 m/s of wind against it:
     for 120 s it never reached its point when those spells did not count)."""
-    def carried_down(t: float, bow_rad: float) -> tuple[float, float]:
+    def down_the_current(t: float, bow_rad: float) -> tuple[float, float]:
         return (-0.7, 0.8 * math.sin(bow_rad))
 
     def along_bow(t: float, bow_rad: float) -> tuple[float, float]:
@@ -299,7 +299,7 @@ def test_a_keeper_the_current_carries_down_onto_its_point_is_not_creeping() -> N
     def bobbing(t: float, bow_rad: float) -> tuple[float, float]:
         return (-0.5 if int(t) % 2 == 0 else 0.5, 0.8 * math.sin(bow_rad))
 
-    assert _keeper_from_upstream_given_up_after_s(carried_down, 30.0, 2.0 * POINT_ORBIT_AFTER_S) is None
+    assert _keeper_from_upstream_given_up_after_s(down_the_current, 30.0, 2.0 * POINT_ORBIT_AFTER_S) is None
     creeping = _keeper_from_upstream_given_up_after_s(along_bow, 30.0, 2.0 * POINT_ORBIT_AFTER_S)
     assert creeping is not None and creeping >= POINT_ORBIT_AFTER_S - 0.2
     ferrying = _keeper_from_upstream_given_up_after_s(bobbing, 3.0, 3.0 * POINT_ORBIT_AFTER_S)
