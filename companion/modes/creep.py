@@ -97,13 +97,9 @@ def carried_down(nav: NavState, task: CurrentStationTask) -> bool:
     """The current carries the boat down toward its point: at :data:`CARRIED_DOWN_MPS` or more over
     ground, from more than :data:`CARRIED_FROM_M` up the current of it.  From upstream, GUIDED's
     and RTL's keeper lets the current set the idling boat back onto its point with the bow clamped
-    70 deg off upstream, and its headway across the current met the creep signature: RTL from 42 m
-    up a 1.2 m/s current (3 m/s of wind across) was given up for the orbit 13 m out, and the orbit
-    swung 9-12 m off home.  Not nearer the point, nor slower: in 0.8 m/s with 6 m/s of wind against
-    it the keeper ferried the boat to and fro 2-6 m up the current of its point for 120-150 s
-    without reaching it, carried down at 0.1-0.5 m/s by turns, where the creep signature counted
-    from 10 m out gives it up for the orbit as before (over MAVLink; counted only from 5 m out it
-    never added up to :data:`POINT_ORBIT_AFTER_S`; ``docs/tuning.md``)."""
+    70 deg off upstream; its headway across the current is not creep.  Nearer the point the creep
+    signature counts as before: there a keeper the wind holds off its point must still be given up
+    for the orbit (measurements and the thresholds' choice: ``docs/tuning.md``)."""
     down_mps = downstream_speed_mps((nav.vel_north_mps, nav.vel_east_mps), task.current())
     return down_mps >= CARRIED_DOWN_MPS and task.downstream_m < -CARRIED_FROM_M
 
