@@ -40,6 +40,16 @@ STALL_GAIN_M = 1.0
 STALL_S = 20.0
 
 
+def speed_down_the_current_mps(nav: NavState, task: CurrentStationTask) -> float:
+    """The boat's speed over ground down ``task``'s current (negative: up it)."""
+    return downstream_speed_mps((nav.vel_north_mps, nav.vel_east_mps), task.current())
+
+
+def idling(host: ModeHost) -> bool:
+    """The jet idles: throttle at most :data:`IDLE_THROTTLE`."""
+    return host.control.mapper.throttle <= IDLE_THROTTLE
+
+
 class CreepWatch:
     """Whether a station keeper holds a point the boat cannot stand on: the drift (current and
     wind together) is weaker than the jet's idle creep, which the keeper cannot know beforehand
@@ -59,7 +69,7 @@ class CreepWatch:
         :data:`STALL_GAIN_M` closer for :data:`STALL_S`: the current does not set it back onto
         the point and the keeper will not motor there.  Catches a boat whose bow swings between
         the keeper's two headings, which the creep signature misses (``docs/tuning.md``)."""
-        idle = host.control.mapper.throttle <= IDLE_THROTTLE
+        idle = idling(host)
         if not idle or distance_m <= STALL_FAR_M or distance_m < self._closest_m - STALL_GAIN_M:
             self._closest_m, self._closest_t_s = distance_m, nav.t_s  # (re)start the clock here
             return False
@@ -79,7 +89,7 @@ class CreepWatch:
                  after_s: float = ORBIT_AFTER_S, excused: bool = False) -> bool:
         """True once the creep signature has lasted ``after_s`` (net), not counting samples the
         caller ``excused`` (:func:`carried_down`)."""
-        at_idle = host.control.mapper.throttle <= IDLE_THROTTLE
+        at_idle = idling(host)
         on_heading = abs(wrap_pi(nav.heading_rad - station_heading_rad)) < ON_HEADING_RAD
         return self.count(at_idle and on_heading and nav.u_mps > CREEP_MPS and not excused, dt_s, after_s)
 
@@ -100,7 +110,7 @@ def carried_down(nav: NavState, task: CurrentStationTask) -> bool:
     70 deg off upstream; its headway across the current is not creep.  Nearer the point the creep
     signature counts as before: there a keeper the wind holds off its point must still be given up
     for the orbit (measurements and the thresholds' choice: ``docs/tuning.md``)."""
-    down_mps = downstream_speed_mps((nav.vel_north_mps, nav.vel_east_mps), task.current())
+    down_mps = speed_down_the_current_mps(nav, task)
     return down_mps >= CARRIED_DOWN_MPS and task.downstream_m < -CARRIED_FROM_M
 
 
@@ -164,8 +174,8 @@ def creeping_up(host: ModeHost, nav: NavState, task: CurrentStationTask, watch: 
     before the signature showed (``docs/tuning.md``).  Going up the current, not merely not being
     set back: in 1.2 m/s against 6 m/s of wind the keeper holds within 1.2 m while the boat is
     set back at under 0.15 m/s, which the trial's test (:func:`trial_creeping`) takes for creep."""
-    down_mps = downstream_speed_mps((nav.vel_north_mps, nav.vel_east_mps), task.current())
-    at_idle = host.control.mapper.throttle <= IDLE_THROTTLE
+    down_mps = speed_down_the_current_mps(nav, task)
+    at_idle = idling(host)
     up = at_idle and down_mps <= -CREEP_UP_MPS and task.downstream_m < -TRIAL_PAST_M
     return watch.count(up, dt_s, ORBIT_AFTER_S)
 
@@ -184,8 +194,8 @@ def trial_creeping(host: ModeHost, nav: NavState, task: CurrentStationTask, watc
         return False
     if nav.t_s - task.started_s > TRIAL_SETTLE_S and task.distance_m > TRIAL_SETTLED_M:
         return True
-    down_mps = downstream_speed_mps((nav.vel_north_mps, nav.vel_east_mps), task.current())
-    at_idle = host.control.mapper.throttle <= IDLE_THROTTLE
+    down_mps = speed_down_the_current_mps(nav, task)
+    at_idle = idling(host)
     above = at_idle and task.downstream_m < -TRIAL_PAST_M
     if watch.count(above and down_mps <= -TRIAL_UP_MPS, dt_s, TRIAL_UP_S, watch.running_up):
         return True
