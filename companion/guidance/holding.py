@@ -286,3 +286,25 @@ def orbit_clockwise(heading_rad: float, yaw_rate_radps: float, current_ne_mps: t
         right_n, right_e = math.cos(heading_rad + 0.5 * math.pi), math.sin(heading_rad + 0.5 * math.pi)
         return right_n * current_ne_mps[0] + right_e * current_ne_mps[1] < 0.0
     return yaw_rate_radps >= 0.0
+
+
+JOIN_ROUND_MPS = 0.3
+"""A boat outside an orbit's circle going round its centre at this speed or more (over ground)
+keeps going round that way (:func:`going_round_clockwise`)."""
+
+
+def going_round_clockwise(offset_ne_m: tuple[float, float], velocity_ne_mps: tuple[float, float],
+                          radius_m: float) -> bool | None:
+    """The way a boat outside an orbit's circle (``offset_ne_m`` from its centre, farther than
+    ``radius_m``) already goes round the centre: True clockwise, False counter-clockwise, None
+    inside the circle, or going round it at under :data:`JOIN_ROUND_MPS` or slower than it heads
+    for or away from the centre.  An orbit taken up off its point turned the other way sends the boat through
+    the centre at speed, and the entry turn there carries it out the far side."""
+    d_m = math.hypot(*offset_ne_m)
+    if d_m <= radius_m:
+        return None
+    round_mps = (offset_ne_m[0] * velocity_ne_mps[1] - offset_ne_m[1] * velocity_ne_mps[0]) / d_m
+    out_mps = (offset_ne_m[0] * velocity_ne_mps[0] + offset_ne_m[1] * velocity_ne_mps[1]) / d_m
+    if abs(round_mps) < max(JOIN_ROUND_MPS, abs(out_mps)):
+        return None
+    return round_mps > 0.0

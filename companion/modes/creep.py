@@ -13,7 +13,7 @@ from typing import TypeVar
 
 from companion.guidance.bow_turn import downstream_speed_mps
 from companion.guidance.geo import wrap_pi
-from companion.guidance.holding import orbit_clockwise
+from companion.guidance.holding import going_round_clockwise, orbit_clockwise
 from companion.messages import NavState
 from companion.modes.evidence import LeakyEvidence
 from companion.modes.holding import CurrentStationTask, OrbitTask
@@ -96,11 +96,18 @@ class CreepWatch:
 
 def orbit_instead(host: ModeHost, task: CurrentStationTask, nav: NavState) -> OrbitTask:
     """The drift-compensated orbit round ``task``'s point, for a station keeper that creeps (the
-    vehicle's :class:`~companion.modes.station_trials.StationTrials` remembers it)."""
+    vehicle's :class:`~companion.modes.station_trials.StationTrials` remembers it).  Taken up off
+    the circle, it goes round the point the way the boat already goes round it
+    (:func:`~companion.guidance.holding.going_round_clockwise`); else as an orbit entered at its
+    point (:func:`~companion.guidance.holding.orbit_clockwise`)."""
     current = task.current()
     host.station_trials.failed(current, nav.t_s)
-    return OrbitTask(host.params, task.point, task.current.source, current,
-                     orbit_clockwise(nav.heading_rad, nav.r_radps, current))
+    offset_ne_m = task.frame.to_ne(nav.lat_deg, nav.lon_deg)
+    clockwise = going_round_clockwise(offset_ne_m, (nav.vel_north_mps, nav.vel_east_mps),
+                                      host.params.get("USV_TURN_RAD"))
+    if clockwise is None:
+        clockwise = orbit_clockwise(nav.heading_rad, nav.r_radps, current)
+    return OrbitTask(host.params, task.point, task.current.source, current, clockwise)
 
 
 def carried_down(nav: NavState, task: CurrentStationTask) -> bool:

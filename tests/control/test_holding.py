@@ -14,6 +14,7 @@ from companion.guidance.holding import (
     HoldStrategy,
     OrbitGains,
     clamped_surge_cap_mps,
+    going_round_clockwise,
     orbit_clockwise,
     pick_strategy,
 )
@@ -181,3 +182,16 @@ def test_orbit_direction_of_a_boat_already_turning_is_its_turn_in_any_current(ya
 def test_orbit_direction_in_slack_water_is_the_way_the_boat_already_turns() -> None:
     assert orbit_clockwise(1.0, 0.05, (0.05, 0.0)) is True
     assert orbit_clockwise(1.0, -0.05, (0.05, 0.0)) is False
+
+
+@pytest.mark.parametrize(("offset_ne", "velocity_ne", "clockwise"), [
+    ((-5.0, 0.0), (0.0, -1.0), True),    # south of the centre heading west: round it clockwise
+    ((-5.0, 0.0), (0.0, 1.0), False),    # heading east: counter-clockwise
+    ((0.0, 4.0), (-1.0, 0.3), True),     # east of it heading (mostly) south
+    ((-5.0, 0.0), (-1.6, -0.5), None),   # running away from it faster than round it
+    ((-5.0, 0.0), (0.4, 0.2), None),     # round it at 0.2 m/s: too slow to say
+    ((-1.0, 0.0), (0.0, -1.5), None),    # inside the 2 m circle: the entry rules decide
+])
+def test_an_orbit_taken_up_off_its_circle_goes_round_the_way_the_boat_goes(
+        offset_ne: tuple[float, float], velocity_ne: tuple[float, float], clockwise: bool | None) -> None:
+    assert going_round_clockwise(offset_ne, velocity_ne, 2.0) is clockwise

@@ -250,3 +250,29 @@ async def test_rtl_from_upstream_in_a_strong_current_keeps_station_down_onto_hom
             after_m = max(after_m, home_m) if arrived else 0.0
         assert arrived and not orbited
         assert after_m < 6.0
+
+
+async def test_an_orbit_taken_up_off_its_point_goes_round_it_the_boats_way_not_through_it() -> None:
+    """0.3 m/s toward N with 3 m/s of wind from W: GUIDED arrives at 2.2 m/s, tries keeping station
+    bow into the current, runs 8 m past and gives the trial up for the orbit 5.3 m south of the
+    point while heading west, going round the point clockwise.  The orbit goes round the same way
+    and comes in onto its 2 m circle: over the next 30 s the boat never comes within 1 m of the
+    point (measured 1.9 m; when the orbit turned the other way, as a boat entering at the point
+    would, the field took it straight through the point, 0.2 m, at 1.5 m/s and out 5.7 m the far
+    side) and ends them on the circle."""
+    async with SitlHarness(seed=2, current="0.3,0", wind="3,270", waves="0.15", full_stack=True) as h:
+        vehicle = h.services.vehicle
+        assert await _guided_to_the_point(h, 60.0, 0.05)
+        tried, orbit_s, dists = False, None, []
+        for _ in range(1600):  # 80 s
+            await h.run_for(0.05)
+            task = vehicle.modes.current.task
+            tried = tried or (isinstance(task, CurrentStationTask) and task.trial)
+            if tried and isinstance(task, OrbitTask):
+                orbit_s = orbit_s or h.ctx.clock.now_s()
+                dists.append(math.dist(_pos(h), GOTO_NE))
+                if h.ctx.clock.now_s() - orbit_s >= 30.0:
+                    break
+        assert orbit_s is not None and dists[0] > 4.0  # taken up well off the point
+        assert min(dists) > 1.0
+        assert 1.0 < dists[-1] < 3.0
