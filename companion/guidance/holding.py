@@ -296,10 +296,10 @@ keeps going round that way (:func:`going_round_clockwise`)."""
 def going_round_clockwise(offset_ne_m: tuple[float, float], velocity_ne_mps: tuple[float, float],
                           radius_m: float) -> bool | None:
     """The way a boat outside an orbit's circle (``offset_ne_m`` from its centre, farther than
-    ``radius_m``) already goes round the centre: True clockwise, False counter-clockwise, None
-    inside the circle, or going round it at under :data:`JOIN_ROUND_MPS` or slower than it heads
-    for or away from the centre.  An orbit taken up off its point turned the other way sends the boat through
-    the centre at speed, and the entry turn there carries it out the far side."""
+    ``radius_m``) already goes round the centre: True clockwise, False counter-clockwise; None
+    inside the circle, or going round at under :data:`JOIN_ROUND_MPS` or slower than it heads for
+    or away from the centre.  An orbit taken up off its point the other way round sends the boat
+    through the centre at speed, and the entry turn there carries it out the far side."""
     d_m = math.hypot(*offset_ne_m)
     if d_m <= radius_m:
         return None

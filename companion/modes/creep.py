@@ -69,8 +69,7 @@ class CreepWatch:
         :data:`STALL_GAIN_M` closer for :data:`STALL_S`: the current does not set it back onto
         the point and the keeper will not motor there.  Catches a boat whose bow swings between
         the keeper's two headings, which the creep signature misses (``docs/tuning.md``)."""
-        idle = idling(host)
-        if not idle or distance_m <= STALL_FAR_M or distance_m < self._closest_m - STALL_GAIN_M:
+        if not idling(host) or distance_m <= STALL_FAR_M or distance_m < self._closest_m - STALL_GAIN_M:
             self._closest_m, self._closest_t_s = distance_m, nav.t_s  # (re)start the clock here
             return False
         return nav.t_s - self._closest_t_s > STALL_S
