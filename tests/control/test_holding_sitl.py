@@ -41,6 +41,22 @@ async def _guided_to_the_point_and_hold(h: SitlHarness) -> None:
     await h.run_for(30.0)
 
 
+async def _trial_then_orbit(h: SitlHarness, seconds: float) -> tuple[list[float], int | None]:
+    """The boat's distance from :data:`GOTO_NE` every 0.05 s for ``seconds``, and the index of the
+    first sample at which GUIDED's hold, having tried keeping station (a trial), orbits instead
+    (``None``: not within ``seconds``)."""
+    vehicle = h.services.vehicle
+    tried, given_up, dists = False, None, []
+    for _ in range(round(seconds / 0.05)):
+        await h.run_for(0.05)
+        dists.append(math.dist(_pos(h), GOTO_NE))
+        task = vehicle.modes.current.task
+        tried = tried or (isinstance(task, CurrentStationTask) and task.trial)
+        if tried and given_up is None and isinstance(task, OrbitTask):
+            given_up = len(dists) - 1
+    return dists, given_up
+
+
 async def _loiter_from_here(h: SitlHarness, samples: int, every_step: type | None = None) -> list[float]:
     """LOITER where the boat is; its distance from there every 0.5 s, ``samples`` times, with the
     hold task checked to be ``every_step`` at each sample when given."""
@@ -216,17 +232,9 @@ async def test_a_station_trial_the_boat_runs_past_is_given_up_near_the_point() -
     only 3 s of not being set back counted: 7.2 m), and the boat stays within 7.5 m of it over the
     first 60 s (measured 6.8 m)."""
     async with SitlHarness(seed=3, current="0.5,180", wind="6,180", waves="0.3", full_stack=True) as h:
-        vehicle = h.services.vehicle
         assert await _guided_to_the_point(h, 60.0, 0.05)
-        tried, given_up_m, dists = False, None, []
-        for _ in range(1200):  # 60 s
-            await h.run_for(0.05)
-            dists.append(math.dist(_pos(h), GOTO_NE))
-            task = vehicle.modes.current.task
-            tried = tried or (isinstance(task, CurrentStationTask) and task.trial)
-            if tried and given_up_m is None and isinstance(task, OrbitTask):
-                given_up_m = dists[-1]
-        assert tried and given_up_m is not None and given_up_m < 5.5
+        dists, given_up = await _trial_then_orbit(h, 60.0)
+        assert given_up is not None and dists[given_up] < 5.5
         assert max(dists) < 7.5
 
 
@@ -261,18 +269,10 @@ async def test_an_orbit_taken_up_off_its_point_goes_round_it_the_boats_way_not_t
     would, the field took it straight through the point, 0.2 m, at 1.5 m/s and out 5.7 m the far
     side) and ends them on the circle."""
     async with SitlHarness(seed=2, current="0.3,0", wind="3,270", waves="0.15", full_stack=True) as h:
-        vehicle = h.services.vehicle
         assert await _guided_to_the_point(h, 60.0, 0.05)
-        tried, orbit_s, dists = False, None, []
-        for _ in range(1600):  # 80 s
-            await h.run_for(0.05)
-            task = vehicle.modes.current.task
-            tried = tried or (isinstance(task, CurrentStationTask) and task.trial)
-            if tried and isinstance(task, OrbitTask):
-                orbit_s = orbit_s or h.ctx.clock.now_s()
-                dists.append(math.dist(_pos(h), GOTO_NE))
-                if h.ctx.clock.now_s() - orbit_s >= 30.0:
-                    break
-        assert orbit_s is not None and dists[0] > 4.0  # taken up well off the point
-        assert min(dists) > 1.0
-        assert 1.0 < dists[-1] < 3.0
+        dists, given_up = await _trial_then_orbit(h, 80.0)
+        assert given_up is not None
+        orbiting = dists[given_up:given_up + 601]  # 30 s
+        assert len(orbiting) == 601 and orbiting[0] > 4.0  # taken up well off the point
+        assert min(orbiting) > 1.0
+        assert 1.0 < orbiting[-1] < 3.0
