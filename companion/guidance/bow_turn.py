@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 
-from companion.guidance.geo import wrap_pi
+from companion.guidance.geo import along_across_m, wrap_pi
 from companion.guidance.holding import KEEP_TURN_RADPS
 from companion.guidance.waypoints import UTurnLatch
 
@@ -27,16 +27,6 @@ POWERED_TURN_RAD = math.radians(60.0)
 farther than this off the keeper's heading and the boat is being carried downstream, unless it is
 more than :data:`UPSTREAM_IDLE_M` upstream of its point (``docs/tuning.md``)."""
 UPSTREAM_IDLE_M = 1.0
-
-
-def along_across_m(pos_ne: tuple[float, float], ref_ne: tuple[float, float],
-                   current_ne_mps: tuple[float, float]) -> tuple[float, float]:
-    """Where ``pos_ne`` lies from ``ref_ne`` (m): downstream along the current (negative: upstream),
-    and across it (positive: to the right looking downstream)."""
-    cn, ce = current_ne_mps
-    speed = max(math.hypot(cn, ce), 1e-6)
-    dn, de = pos_ne[0] - ref_ne[0], pos_ne[1] - ref_ne[1]
-    return (dn * cn + de * ce) / speed, (-dn * ce + de * cn) / speed
 
 
 def downstream_speed_mps(vel_ne_mps: tuple[float, float], current_ne_mps: tuple[float, float]) -> float:

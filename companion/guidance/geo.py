@@ -128,3 +128,13 @@ def distance_to_segment_m(p_ne: tuple[float, float], a_ne: tuple[float, float],
 def distance_bearing(north_m: float, east_m: float) -> tuple[float, float]:
     """Length (m) and bearing (rad, clockwise from north, [0, 2*pi)) of a north-east vector."""
     return math.hypot(north_m, east_m), wrap_2pi(math.atan2(east_m, north_m))
+
+
+def along_across_m(pos_ne: tuple[float, float], ref_ne: tuple[float, float],
+                   current_ne_mps: tuple[float, float]) -> tuple[float, float]:
+    """Where ``pos_ne`` lies from ``ref_ne`` (m): downstream along the current (negative: upstream),
+    and across it (positive: to the right looking downstream)."""
+    cn, ce = current_ne_mps
+    speed = max(math.hypot(cn, ce), 1e-6)
+    dn, de = pos_ne[0] - ref_ne[0], pos_ne[1] - ref_ne[1]
+    return (dn * cn + de * ce) / speed, (-dn * ce + de * cn) / speed

@@ -42,7 +42,7 @@ import math
 from dataclasses import dataclass
 
 from companion.angles import upstream_rad
-from companion.guidance.geo import distance_bearing, wrap_2pi, wrap_pi
+from companion.guidance.geo import along_across_m, distance_bearing, wrap_2pi, wrap_pi
 
 MAX_CRAB_SIN = 0.8
 """Largest |sin| of the orbit's crab angle (53 deg)."""
@@ -303,8 +303,7 @@ def going_round_clockwise(offset_ne_m: tuple[float, float], velocity_ne_mps: tup
     d_m = math.hypot(*offset_ne_m)
     if d_m <= radius_m:
         return None
-    round_mps = (offset_ne_m[0] * velocity_ne_mps[1] - offset_ne_m[1] * velocity_ne_mps[0]) / d_m
-    out_mps = (offset_ne_m[0] * velocity_ne_mps[0] + offset_ne_m[1] * velocity_ne_mps[1]) / d_m
+    out_mps, round_mps = along_across_m(velocity_ne_mps, (0.0, 0.0), offset_ne_m)  # round: clockwise
     if abs(round_mps) < max(JOIN_ROUND_MPS, abs(out_mps)):
         return None
     return round_mps > 0.0

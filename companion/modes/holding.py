@@ -23,8 +23,8 @@ from dataclasses import replace
 
 from companion.angles import current_along_mps, upstream_rad
 from companion.control.target import ControlTarget
-from companion.guidance.bow_turn import KeeperTurn, along_across_m, downstream_speed_mps
-from companion.guidance.geo import LocalFrame, wrap_2pi
+from companion.guidance.bow_turn import KeeperTurn, downstream_speed_mps
+from companion.guidance.geo import LocalFrame, along_across_m, wrap_2pi
 from companion.guidance.hold_params import HOLD_CURRENT, current_station_gains, orbit_gains
 from companion.guidance.holding import (
     CurrentStationKeeper,

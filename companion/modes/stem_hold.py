@@ -10,8 +10,8 @@ from dataclasses import replace
 
 from companion.angles import current_along_mps
 from companion.control.target import ControlTarget
-from companion.guidance.bow_turn import KeeperTurn, along_across_m, downstream_speed_mps
-from companion.guidance.geo import wrap_pi
+from companion.guidance.bow_turn import KeeperTurn, downstream_speed_mps
+from companion.guidance.geo import along_across_m, wrap_pi
 from companion.guidance.hold_params import current_station_gains
 from companion.guidance.holding import CurrentStationKeeper
 from companion.guidance.los import LosFollower, LosType

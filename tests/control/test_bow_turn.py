@@ -7,8 +7,8 @@ import math
 
 import pytest
 
-from companion.guidance.bow_turn import KeeperTurn, along_across_m, downstream_speed_mps
-from companion.guidance.geo import LocalFrame
+from companion.guidance.bow_turn import KeeperTurn, downstream_speed_mps
+from companion.guidance.geo import LocalFrame, along_across_m
 from companion.messages import NavState
 from companion.modes.holding import CurrentStationTask
 from companion.param_table import all_param_defs
