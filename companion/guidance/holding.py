@@ -185,9 +185,10 @@ class OrbitGains:
     """The entry turn ends after the bow has turned this far at most (a turn that stays inside
     the circle would loop through the point and out the other side)."""
     entry_join_rad: float = math.radians(30.0)
-    """... and as soon as the bow is within this of the orbit's heading there (the field takes
-    over without a turn the other way: reversing the nozzle at speed ran the boat straight
-    through the point at 2.9 m/s); not within a quarter of the radius of the point, where the
+    """... and as soon as the orbit's heading there is at most this far ahead of the bow, the
+    orbit's way (the field takes over without a turn the other way: reversing the nozzle at speed
+    ran the boat straight through the point at 2.9 m/s); not while the bow has turned past it,
+    which would reverse the turn too; not within a quarter of the radius of the point, where the
     field's direction is GPS noise."""
 
 
@@ -216,14 +217,17 @@ class DriftOrbit:
         """One step; ``heading_rad`` is the boat's.  Entered inside the circle (LOITER starts at
         its point, GUIDED hands over on it), the boat turns at once the orbit's way, at the
         orbit's water speed: the heading command leads the bow by ``entry_lead_rad`` until the
-        bow points within ``entry_join_rad`` of the orbit's heading or has turned
-        ``entry_turn_rad`` (a boat still fast when it crosses the circle keeps turning the orbit's
-        way instead of being turned back by the field); entered from outside the circle, the
-        field steers at once.  A boat that cannot stop, moving through its point with turning
-        radius rho, stays within 2 rho of it only by turning at once (any straight stretch
-        first takes it farther); holding the entry heading out to half the radius, as before,
-        let it run out at speed and swing 7-9 m wide before it settled (usv bench nav, 0.5 m/s
-        reporting cell; 3.5-4.6 m with the entry turn, docs/tuning.md)."""
+        orbit's heading is at most ``entry_join_rad`` ahead of the bow (the orbit's way; a bow
+        turned past it keeps turning) or the bow has turned ``entry_turn_rad`` (a boat still fast
+        when it crosses the circle keeps turning the orbit's way instead of being turned back by
+        the field); entered from outside the circle, the field steers at once.  A boat that
+        cannot stop, moving through its point with turning radius rho, stays within 2 rho of it
+        only by turning at once (any straight stretch first takes it farther); holding the entry
+        heading out to half the radius, as before, let it run out at speed and swing 7-9 m wide
+        before it settled (usv bench nav, 0.5 m/s reporting cell; 3.5-4.6 m with the entry turn,
+        docs/tuning.md).  Joining the field with the bow turned past its heading reverses the
+        turn: the yaw row's thrust at the nozzle stop ran the boat out at 2.5 m/s while the nozzle
+        crossed, 6.8 m from the point (LOITER entered from GUIDED's orbit; 2.8 m turning on)."""
         g, lam, big_r = self.gains, self.lam, self.radius_m
         d, phi = distance_bearing(pos_ne[0] - self.centre_ne[0], pos_ne[1] - self.centre_ne[1])
         e_r = d - big_r
@@ -233,8 +237,9 @@ class DriftOrbit:
             self._turned_rad += lam * wrap_pi(heading_rad - self._last_heading_rad)
         self._last_heading_rad = heading_rad
         field = self._field(d, phi, e_r, current_ne_mps, dt_s if not self._entering else 0.0)
+        ahead_rad = lam * wrap_pi(field.heading_rad - heading_rad)  # the orbit's heading ahead of the bow
         if self._entering and self._turned_rad < g.entry_turn_rad \
-                and (d < 0.25 * big_r or abs(wrap_pi(field.heading_rad - heading_rad)) > g.entry_join_rad):
+                and (d < 0.25 * big_r or not 0.0 <= ahead_rad <= g.entry_join_rad):
             u_w = self.water_speed_mps(current_ne_mps)
             psi = wrap_2pi(heading_rad + lam * g.entry_lead_rad)
             surge = u_w + current_ne_mps[0] * math.cos(psi) + current_ne_mps[1] * math.sin(psi)

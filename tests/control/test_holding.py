@@ -122,16 +122,30 @@ def test_orbit_entered_at_its_centre_turns_at_once_the_orbits_way_until_the_bow_
             lead = math.remainder(out.heading_rad - heading, 2 * math.pi)
             assert lead == pytest.approx(sign * math.pi / 2)
         assert sign * first.turn_rate_radps > 0.0
-    # on the circle's east side heading (clockwise) south: the bow is on the orbit's heading, the
-    # field steers from there on (and does not go back to the entry turn)
+    # 1.5 m east of the point the orbit's heading is 159 deg: a bow at 150 deg (turning clockwise
+    # onto it) joins, and the field steers from there on (it does not go back to the entry turn)
     orbit = DriftOrbit((0.0, 0.0), 2.0, clockwise=True)
     orbit.update((0.0, 0.0), (0.0, 0.0), 0.01, heading_rad=0.0)
-    joined = orbit.update((0.0, 1.5), (0.0, 0.0), 0.01, heading_rad=math.pi)
-    assert abs(math.remainder(joined.heading_rad - math.pi, 2 * math.pi)) < math.radians(30.0)
+    joined = orbit.update((0.0, 1.5), (0.0, 0.0), 0.01, heading_rad=math.radians(150.0))
+    assert math.degrees(joined.heading_rad) == pytest.approx(159.4, abs=0.1)
     later = orbit.update((0.0, 0.2), (0.0, 0.0), 0.01, heading_rad=math.pi)
     assert abs(math.remainder(later.heading_rad - 1.5 * math.pi, 2 * math.pi)) > 0.1
     with pytest.raises(ValueError, match="radius"):
         DriftOrbit((0.0, 0.0), 0.0)
+
+
+@pytest.mark.parametrize("clockwise", [True, False])
+def test_orbit_entry_turn_goes_on_when_the_bow_has_turned_past_the_orbits_heading(clockwise: bool) -> None:
+    """A bow already turned past the orbit's heading (LOITER entered while the boat circles) would
+    have to reverse its turn to join the field; it keeps turning the orbit's way instead."""
+    sign = 1.0 if clockwise else -1.0
+    orbit = DriftOrbit((0.0, 0.0), 2.0, clockwise=clockwise)
+    orbit.update((0.0, 0.0), (0.0, 0.0), 0.01, heading_rad=0.0)
+    # mirrored for counter-clockwise: 1.5 m east (west), the orbit's heading 159 deg (201 deg)
+    field_deg = 180.0 - sign * 20.6
+    past = math.radians(field_deg + sign * 20.0)  # 20 deg past it, within entry_join_rad
+    out = orbit.update((0.0, sign * 1.5), (0.0, 0.0), 0.01, heading_rad=past)
+    assert math.remainder(out.heading_rad - past, 2 * math.pi) == pytest.approx(sign * math.pi / 2)
 
 
 def test_orbit_entry_turn_ends_after_three_quarters_of_a_turn_inside_the_circle() -> None:

@@ -276,3 +276,19 @@ async def test_an_orbit_taken_up_off_its_point_goes_round_it_the_boats_way_not_t
         assert len(orbiting) == 601 and orbiting[0] > 4.0  # taken up well off the point
         assert min(orbiting) > 1.0
         assert 1.0 < orbiting[-1] < 3.0
+
+
+async def test_loiter_entered_while_the_boat_circles_turns_on_into_its_orbit_not_back_out() -> None:
+    """0.3 m/s toward S with 6 m/s of wind and Hs 0.3 m along it (usv bench nav's first weather
+    slot, tuning seed 1): GUIDED orbits its point, and LOITER starts on the boat's position while
+    it turns there at about 50 deg/s.  The new orbit's entry turn goes on the way the boat turns
+    until the orbit's heading is ahead of the bow; joining the field with the bow already past it
+    reversed the turn, and the boat ran out at 2.5 m/s while the nozzle crossed (6.8 m from the
+    point; 2.8 m turning on)."""
+    async with SitlHarness(seed=1, current="0.3,180", wind="6,0", waves="0.3", full_stack=True) as h:
+        vehicle = h.services.vehicle
+        await _guided_to_the_point_and_hold(h)
+        assert isinstance(vehicle.modes.current.task, OrbitTask)
+        assert abs(h.plant.state.r_radps) > math.radians(20.0)  # circling when LOITER starts
+        dists = await _loiter_from_here(h, 60, every_step=OrbitTask)
+        assert max(dists) < 4.0
