@@ -225,9 +225,10 @@ class DriftOrbit:
         only by turning at once (any straight stretch first takes it farther); holding the entry
         heading out to half the radius, as before, let it run out at speed and swing 7-9 m wide
         before it settled (usv bench nav, 0.5 m/s reporting cell; 3.5-4.6 m with the entry turn,
-        docs/tuning.md).  Joining the field with the bow turned past its heading reverses the
-        turn: the yaw row's thrust at the nozzle stop ran the boat out at 2.5 m/s while the nozzle
-        crossed, 6.8 m from the point (LOITER entered from GUIDED's orbit; 2.8 m turning on)."""
+        docs/tuning.md).  Joining the field with the bow turned past its heading would reverse the
+        turn, and the yaw row's thrust at the nozzle stop (``circling``) runs the boat out straight
+        while the nozzle crosses (LOITER entered while GUIDED's orbit turns the boat;
+        docs/tuning.md)."""
         g, lam, big_r = self.gains, self.lam, self.radius_m
         d, phi = distance_bearing(pos_ne[0] - self.centre_ne[0], pos_ne[1] - self.centre_ne[1])
         e_r = d - big_r

@@ -141,8 +141,9 @@ def test_orbit_entry_turn_goes_on_when_the_bow_has_turned_past_the_orbits_headin
     sign = 1.0 if clockwise else -1.0
     orbit = DriftOrbit((0.0, 0.0), 2.0, clockwise=clockwise)
     orbit.update((0.0, 0.0), (0.0, 0.0), 0.01, heading_rad=0.0)
-    # mirrored for counter-clockwise: 1.5 m east (west), the orbit's heading 159 deg (201 deg)
-    field_deg = 180.0 - sign * 20.6
+    # 1.5 m east (counter-clockwise: west) of the point, 0.5 m inside the circle, the orbit's
+    # heading is the tangent turned atan(k |e_r| / R) outward, onto the circle: 159 deg (201 deg)
+    field_deg = 180.0 - sign * math.degrees(math.atan(OrbitGains().k_orbit * 0.5 / 2.0))
     past = math.radians(field_deg + sign * 20.0)  # 20 deg past it, within entry_join_rad
     out = orbit.update((0.0, sign * 1.5), (0.0, 0.0), 0.01, heading_rad=past)
     assert math.remainder(out.heading_rad - past, 2 * math.pi) == pytest.approx(sign * math.pi / 2)
