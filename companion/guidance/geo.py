@@ -125,6 +125,13 @@ def distance_to_segment_m(p_ne: tuple[float, float], a_ne: tuple[float, float],
     return math.hypot(p_ne[0] - a_ne[0] - t * dn, p_ne[1] - a_ne[1] - t * de)
 
 
+def turn_to_go_rad(lam: float, from_rad: float, to_rad: float) -> float:
+    """The turn (rad, within +-pi) from the direction ``from_rad`` to ``to_rad`` the way ``lam``
+    says (+1 clockwise, heading increasing; -1 counter-clockwise); negative when ``from_rad`` has
+    already turned past ``to_rad`` that way."""
+    return lam * wrap_pi(to_rad - from_rad)
+
+
 def distance_bearing(north_m: float, east_m: float) -> tuple[float, float]:
     """Length (m) and bearing (rad, clockwise from north, [0, 2*pi)) of a north-east vector."""
     return math.hypot(north_m, east_m), wrap_2pi(math.atan2(east_m, north_m))

@@ -42,7 +42,7 @@ import math
 from dataclasses import dataclass
 
 from companion.angles import upstream_rad
-from companion.guidance.geo import along_across_m, distance_bearing, wrap_2pi, wrap_pi
+from companion.guidance.geo import along_across_m, distance_bearing, turn_to_go_rad, wrap_2pi, wrap_pi
 
 MAX_CRAB_SIN = 0.8
 """Largest |sin| of the orbit's crab angle (53 deg)."""
@@ -235,10 +235,10 @@ class DriftOrbit:
         if self._last_heading_rad is None and d >= big_r:
             self._entering = False  # entered from outside: the field brings the boat in
         if self._entering and self._last_heading_rad is not None:
-            self._turned_rad += lam * wrap_pi(heading_rad - self._last_heading_rad)
+            self._turned_rad += turn_to_go_rad(lam, self._last_heading_rad, heading_rad)
         self._last_heading_rad = heading_rad
         field = self._field(d, phi, e_r, current_ne_mps, dt_s if not self._entering else 0.0)
-        ahead_rad = lam * wrap_pi(field.heading_rad - heading_rad)  # the orbit's heading ahead of the bow
+        ahead_rad = turn_to_go_rad(lam, heading_rad, field.heading_rad)  # the orbit's heading, from the bow
         if self._entering and self._turned_rad < g.entry_turn_rad \
                 and (d < 0.25 * big_r or not 0.0 <= ahead_rad <= g.entry_join_rad):
             u_w = self.water_speed_mps(current_ne_mps)

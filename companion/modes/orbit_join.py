@@ -40,7 +40,7 @@ from __future__ import annotations
 import math
 
 from companion.control.target import ControlTarget
-from companion.guidance.geo import distance_bearing, wrap_pi
+from companion.guidance.geo import distance_bearing, turn_to_go_rad
 from companion.messages import NavState
 from companion.modes.holding import OrbitTask
 
@@ -99,7 +99,7 @@ class OrbitJoin:
         the current ``current_ne_mps``) to the bearing of the leg's end."""
         here = self.frame.to_ne(nav.lat_deg, nav.lon_deg)
         bearing = distance_bearing(self.end_ne[0] - here[0], self.end_ne[1] - here[1])[1]
-        return self.lam * wrap_pi(bearing - course_rad(nav, current_ne_mps))
+        return turn_to_go_rad(self.lam, course_rad(nav, current_ne_mps), bearing)
 
     def aligned(self, nav: NavState) -> bool:
         """Whether to leave the orbit now (module docstring)."""
@@ -108,7 +108,7 @@ class OrbitJoin:
         if nav.t_s - self._start_s >= MAX_WAIT_S:
             return True
         if self._last_heading_rad is not None:
-            self.turned_rad += self.lam * wrap_pi(nav.heading_rad - self._last_heading_rad)
+            self.turned_rad += turn_to_go_rad(self.lam, self._last_heading_rad, nav.heading_rad)
         self._last_heading_rad = nav.heading_rad
         turning_toward = all(0.0 <= to_go <= self.tolerance_rad
                              for to_go in (self.to_go_rad(nav), self.to_go_rad(nav, self.orbit.current())))
