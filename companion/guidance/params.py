@@ -95,8 +95,9 @@ def los_gains(p: ParamReader) -> LosGains:
                     gamma=p.get("USV_ALOS_GAMMA"), beta_max_rad=math.radians(30.0))
 
 
-def leg_config(p: ParamReader, speed_mps: float, accept_radius_m: float) -> LegConfig:
-    return LegConfig(speed_mps=speed_mps, accept_radius_m=accept_radius_m,
+def leg_config(p: ParamReader, speed_mps: float, accept_radius_m: float,
+               corner_cut_max_m: float | None = None) -> LegConfig:
+    return LegConfig(speed_mps=speed_mps, accept_radius_m=accept_radius_m, corner_cut_max_m=corner_cut_max_m,
                      turn_speed_mps=p.get("USV_WP_TURN_SPD"), yaw_lag_s=p.get("USV_WP_YAW_LAG"),
                      turn_rate_max_radps=math.radians(p.get("USV_TURN_MAX")))
 

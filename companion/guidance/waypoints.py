@@ -41,6 +41,9 @@ class LegConfig:
     first corner at 4.6 m/s instead of 2 and overshot it by 3.3 m (0.25: 2.0 m, usv bench nav)."""
     yaw_lag_s: float = 2.5
     """Time the boat needs to build up its turn rate; the turn starts this much earlier."""
+    corner_cut_max_m: float | None = None
+    """A mission item's own acceptance radius (m): the corner's anticipation is capped so the boat
+    passes the waypoint within it (:func:`lead_for_cut_m`); ``None`` (WP_RADIUS): no cap."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -80,6 +83,17 @@ def drift_lead_m(p0: Point, p1: Point, p2: Point, current_ne_mps: tuple[float, f
     if abs(a_m) < 0.2:  # (nearly) straight on: no corner to plan
         return 0.0
     return (current_ne_mps[0] * mn + current_ne_mps[1] * me) * turn_s / a_m
+
+
+def lead_for_cut_m(cut_m: float, radius_m: float) -> float:
+    """The longest turn anticipation (m) before a corner that passes it within ``cut_m``.
+
+    The tightest path from the switch is a turn at once on ``radius_m`` from the old leg: its
+    circle's centre is ``sqrt(L^2 + R^2)`` from the corner, so it passes the corner at
+    ``sqrt(L^2 + R^2) - R``; that is ``cut_m`` for ``L = sqrt(cut_m^2 + 2 cut_m R)``.  A boat that
+    builds up its turn rate later turns after the switch and passes closer.
+    """
+    return math.sqrt(cut_m * cut_m + 2.0 * cut_m * radius_m)
 
 
 U_TURN_RAD = math.radians(135.0)
@@ -215,6 +229,8 @@ class LegNavigator:
         v = min(c.speed_mps, c.turn_speed_mps)
         radius = max(v, speed_mps or 0.0) / c.turn_rate_max_radps
         lead = radius * math.tan(0.5 * min(turn, math.radians(150.0))) + v * c.yaw_lag_s * turn / math.pi
+        if c.corner_cut_max_m is not None:
+            lead = min(lead, lead_for_cut_m(c.corner_cut_max_m, radius))
         if current_ne_mps is not None:
             turn_s = turn / c.turn_rate_max_radps + c.yaw_lag_s * turn / math.pi
             lead = max(0.0, lead + drift_lead_m(self.start, self.end, self.next_point, current_ne_mps,

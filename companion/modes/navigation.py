@@ -109,12 +109,13 @@ class GotoTask:
         self.water_current = water_current
         self.frame = LocalFrame(*start)
         self.end = end
-        radius = accept_radius_m if accept_radius_m and accept_radius_m > 0 else param(params, "WP_RADIUS")
+        explicit = accept_radius_m is not None and accept_radius_m > 0
+        radius = accept_radius_m if explicit and accept_radius_m is not None else param(params, "WP_RADIUS")
         los_type = LosType(int(params.get("USV_LOS_TYPE")))
         if follower is None or follower.los_type != los_type:
             follower = LosFollower(los_gains(params), los_type)
         self.follower = follower
-        self.nav = LegNavigator(follower, leg_config(params, speed_mps, radius))
+        self.nav = LegNavigator(follower, leg_config(params, speed_mps, radius, radius if explicit else None))
         nxt = self.frame.to_ne(*next_point) if next_point is not None else None
         self.nav.set_leg((0.0, 0.0), self.frame.to_ne(*end), nxt)
         self.point = end

@@ -144,6 +144,33 @@ def test_turn_anticipation_is_sized_for_the_speed_the_boat_actually_has() -> Non
     assert reached_at(5.5, 3.5) and reached_at(6.5, 3.5) and not reached_at(7.5, 3.5)
 
 
+def test_a_waypoints_own_acceptance_radius_holds_the_turn_until_the_boat_can_pass_within_it() -> None:
+    """A mission item with its own acceptance radius (MAVSDK sends one with every item) is passed
+    within it: the turn anticipation, 5 m before a right angle at 2 m/s, starts later, so that
+    even a boat turning at once at the full turn rate passes the corner within the radius."""
+    rate_radps, speed_mps, accept_m = math.radians(45.0), 2.0, 1.5
+
+    def reached_at(remaining_m: float, corner_cut_max_m: float | None) -> bool:
+        nav = LegNavigator(LosFollower(LosGains()), LegConfig(
+            speed_mps=5.0, turn_speed_mps=speed_mps, turn_rate_max_radps=rate_radps, yaw_lag_s=2.5,
+            accept_radius_m=accept_m, corner_cut_max_m=corner_cut_max_m))
+        nav.set_leg((0.0, 0.0), (50.0, 0.0), (50.0, 50.0))
+        return nav.update((50.0 - remaining_m, 0.0), speed_mps, 0.01).reached
+
+    def switch_m(corner_cut_max_m: float | None) -> float:
+        """How far before the corner the boat, coming along the leg, goes on to the next leg."""
+        return next(r for r in (10.0 - k * 0.02 for k in range(500)) if reached_at(r, corner_cut_max_m))
+
+    assert switch_m(None) > 4.9  # WP_RADIUS: the corner is planned for the boat's turn
+    lead_m = switch_m(accept_m)
+    # from the switch, turn at once at the full rate toward the new leg (east) and keep turning
+    radius_m = speed_mps / rate_radps
+    arc = [(50.0 - lead_m + radius_m * math.sin(a), radius_m * (1.0 - math.cos(a)))
+           for a in (k * math.pi / 400 for k in range(201))]
+    closest_m = min(math.dist(p, (50.0, 0.0)) for p in arc)
+    assert accept_m - 0.1 <= closest_m <= accept_m
+
+
 def test_only_the_last_leg_of_a_route_slows_the_boat_down_to_stop() -> None:
     def stopping(next_point: tuple[float, float] | None) -> bool:
         nav = LegNavigator(LosFollower(LosGains()), LegConfig(speed_mps=5.0, turn_speed_mps=2.0))
