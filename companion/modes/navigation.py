@@ -103,19 +103,21 @@ class GotoTask:
         of the current carries over a corner (scaled by the cosine of the turn) instead of being
         learnt again on every leg; a new one when None.  ``drift``: the vehicle's current
         observer, for the crab feed-forward (``USV_LOS_CFF``).  ``water_current``: the
-        estimator's current (:func:`estimator_current`), for the speed of a U-turn onto the leg."""
+        estimator's current (:func:`estimator_current`), for the speed of a U-turn onto the leg.
+        ``accept_radius_m``: the item's own radius (> 0) also caps the corner's anticipation
+        (:attr:`~companion.guidance.waypoints.LegConfig.corner_cut_max_m`); else ``WP_RADIUS``."""
         self.params = params
         self.drift = drift
         self.water_current = water_current
         self.frame = LocalFrame(*start)
         self.end = end
-        explicit = accept_radius_m is not None and accept_radius_m > 0
-        radius = accept_radius_m if explicit and accept_radius_m is not None else param(params, "WP_RADIUS")
+        own_radius = accept_radius_m if accept_radius_m is not None and accept_radius_m > 0 else None
+        radius = own_radius if own_radius is not None else param(params, "WP_RADIUS")
         los_type = LosType(int(params.get("USV_LOS_TYPE")))
         if follower is None or follower.los_type != los_type:
             follower = LosFollower(los_gains(params), los_type)
         self.follower = follower
-        self.nav = LegNavigator(follower, leg_config(params, speed_mps, radius, radius if explicit else None))
+        self.nav = LegNavigator(follower, leg_config(params, speed_mps, radius, corner_cut_max_m=own_radius))
         nxt = self.frame.to_ne(*next_point) if next_point is not None else None
         self.nav.set_leg((0.0, 0.0), self.frame.to_ne(*end), nxt)
         self.point = end
