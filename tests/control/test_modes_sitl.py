@@ -72,6 +72,32 @@ async def test_auto_mission_runs_every_item_and_reports_complete(ctrl_type: int)
         assert math.hypot(n - 0.0, e - 40.0) < 6.0  # at the last waypoint (WP_RADIUS + stopping)
 
 
+async def test_auto_passes_every_waypoint_within_the_acceptance_radius_the_mission_gives() -> None:
+    """A survey as MAVSDK uploads it (every item with its own acceptance radius, here 1.5 m; 20 m
+    lines 8 m apart, fly-through at 4 m/s): each right-angle corner is passed within its radius;
+    turning onto the next leg as early as the corner planning does for ``WP_RADIUS``, the boat cut
+    every other corner by more than the radius."""
+    accept_m = 1.5
+    async with SitlHarness(seed=1, full_stack=True) as h:
+        vehicle = await _start(h)
+        frame = LocalFrame(*HOME)
+        points = [(15.0 + 8.0 * (i // 2), (0.0 if i % 4 in (0, 3) else 20.0)) for i in range(12)]
+        plan = _plan(frame, [(mi.CMD_DO_CHANGE_SPEED, None, {"param1": 1.0, "param2": 4.0, "param3": -1.0}),
+                             *[(mi.CMD_NAV_WAYPOINT, ne, {"param2": accept_m}) for ne in points]])
+        vehicle.missions.replace(MissionType.MISSION, plan)
+        assert vehicle.set_mode(10) is None
+        track = [_pos(h)]
+        for _ in range(1500):
+            await h.run_for(0.1)
+            track.append(_pos(h))
+            if vehicle.mission_state == MissionState.COMPLETE:
+                break
+        assert vehicle.mission_state == MissionState.COMPLETE
+        passed = {i + 1: round(min(distance_to_segment_m(p, a, b) for a, b in itertools.pairwise(track)), 2)
+                  for i, p in enumerate(points)}
+        assert max(passed.values()) <= accept_m, passed
+
+
 async def test_auto_is_refused_without_a_mission_and_says_why() -> None:
     async with SitlHarness(seed=1, full_stack=True) as h:
         vehicle = await _start(h)
