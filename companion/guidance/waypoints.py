@@ -10,7 +10,8 @@ anticipation) so that the turn is an arc tangent to both legs.  The radius of th
 the boat will actually turn on: ``U / r_max`` at the larger of the planned corner speed and the
 measured speed over ground (waves, a following current or a lagging speed loop can bring the boat
 to the corner faster than planned; an anticipation sized for the planned speed then swings it
-metres wide of the next leg).
+metres wide of the next leg).  A mission item's own acceptance radius caps the anticipation so
+that the corner is passed within it (:func:`lead_for_cut_m`).
 """
 
 from __future__ import annotations
