@@ -127,11 +127,18 @@ def test_orbit_entered_at_its_centre_turns_at_once_the_orbits_way_until_the_bow_
     orbit = DriftOrbit((0.0, 0.0), 2.0, clockwise=True)
     orbit.update((0.0, 0.0), (0.0, 0.0), 0.01, heading_rad=0.0)
     joined = orbit.update((0.0, 1.5), (0.0, 0.0), 0.01, heading_rad=math.radians(150.0))
-    assert math.degrees(joined.heading_rad) == pytest.approx(159.4, abs=0.1)
+    assert math.degrees(joined.heading_rad) == pytest.approx(_orbit_heading_deg(clockwise=True), abs=0.1)
     later = orbit.update((0.0, 0.2), (0.0, 0.0), 0.01, heading_rad=math.pi)
     assert abs(math.remainder(later.heading_rad - 1.5 * math.pi, 2 * math.pi)) > 0.1
     with pytest.raises(ValueError, match="radius"):
         DriftOrbit((0.0, 0.0), 0.0)
+
+
+def _orbit_heading_deg(clockwise: bool) -> float:
+    """The heading of a 2 m orbit 1.5 m east (counter-clockwise: west) of its point, 0.5 m inside
+    the circle: the tangent turned atan(k |e_r| / R) outward, onto the circle (159 / 201 deg)."""
+    sign = 1.0 if clockwise else -1.0
+    return 180.0 - sign * math.degrees(math.atan(OrbitGains().k_orbit * 0.5 / 2.0))
 
 
 @pytest.mark.parametrize("clockwise", [True, False])
@@ -141,9 +148,7 @@ def test_orbit_entry_turn_goes_on_when_the_bow_has_turned_past_the_orbits_headin
     sign = 1.0 if clockwise else -1.0
     orbit = DriftOrbit((0.0, 0.0), 2.0, clockwise=clockwise)
     orbit.update((0.0, 0.0), (0.0, 0.0), 0.01, heading_rad=0.0)
-    # 1.5 m east (counter-clockwise: west) of the point, 0.5 m inside the circle, the orbit's
-    # heading is the tangent turned atan(k |e_r| / R) outward, onto the circle: 159 deg (201 deg)
-    field_deg = 180.0 - sign * math.degrees(math.atan(OrbitGains().k_orbit * 0.5 / 2.0))
+    field_deg = _orbit_heading_deg(clockwise)
     past = math.radians(field_deg + sign * 20.0)  # 20 deg past it, within entry_join_rad
     out = orbit.update((0.0, sign * 1.5), (0.0, 0.0), 0.01, heading_rad=past)
     assert math.remainder(out.heading_rad - past, 2 * math.pi) == pytest.approx(sign * math.pi / 2)
