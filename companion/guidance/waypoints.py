@@ -45,6 +45,9 @@ class LegConfig:
     corner_cut_max_m: float | None = None
     """A mission item's own acceptance radius (m): the corner's anticipation is capped so the boat
     passes the waypoint within it (:func:`lead_for_cut_m`); ``None`` (WP_RADIUS): no cap."""
+    arrive_short_m: float = 0.0
+    """Before the last point (no next one) the boat is down to ``turn_speed_mps`` this far short of
+    it, where the caller hands over to what comes next (a circle item's circle law or hold)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -248,11 +251,12 @@ class LegNavigator:
         err = out.errors
         remaining = err.remaining_m
         v_corner, lead = self._corner()
+        brake_lead = lead
         if self.next_point is None:
             # last point: slow to arrive (the caller decides what happens there)
-            v_corner, lead = min(c.speed_mps, c.turn_speed_mps), 0.0
+            v_corner, lead, brake_lead = min(c.speed_mps, c.turn_speed_mps), 0.0, c.arrive_short_m
         # v^2 = v_corner^2 + 2 a d  (constant-deceleration profile up to the corner)
-        v_brake = math.sqrt(v_corner**2 + 2.0 * c.decel_mps2 * max(0.0, remaining - lead))
+        v_brake = math.sqrt(v_corner**2 + 2.0 * c.decel_mps2 * max(0.0, remaining - brake_lead))
         speed = min(c.speed_mps, v_brake)
         if course_rad is not None and abs(wrap_pi(out.course_rad - course_rad)) > c.sharp_turn_rad:
             speed = min(speed, c.turn_speed_mps)

@@ -47,7 +47,11 @@ from companion.modes.orbit_join import LEAVING_ORBIT_TEXT, OrbitJoin
 LEG_RESTART_M = 50.0
 """Knocked farther than this off the old leg's end, the next leg starts where the boat is."""
 CIRCLE_TAKEOVER_M = 15.0
-"""Items that circle their point stop approaching this far out (the circle law approaches)."""
+"""Items that circle their point stop approaching this far out (the circle law approaches), and
+the approach is down to the corner speed (``USV_WP_TURN_SPD``) there: the hold on the circle
+(:class:`~companion.modes.stem_hold.StemHold`) may start with a sharp turn, and a jet that came
+in braking toward the centre (3.4 m/s at the hand-over) coasted on straight while the sharp turn
+cut its throttle, through the sampling circle (``docs/tuning.md``)."""
 MINUTE_PER_TURN_S = 60.0
 """LOITER_TURNS without a radius keeps station this long per turn."""
 
@@ -184,7 +188,8 @@ class NavItem(ItemTask):
             start = here
         carried = run.task.follower if isinstance(run.task, GotoTask) else None  # last leg's crab estimate
         run.task = GotoTask(params, start, target, speed, accept_radius_m, next_point, follower=carried,
-                            drift=run.drift, water_current=estimator_current(run.host))
+                            drift=run.drift, water_current=estimator_current(run.host),
+                            arrive_short_m=CIRCLE_TAKEOVER_M if self.circles else 0.0)
         run.phase = Phase.GOTO
 
     def step(self, nav: NavState) -> bool:

@@ -98,14 +98,17 @@ class GotoTask:
                  speed_mps: float, accept_radius_m: float | None = None,
                  next_point: tuple[float, float] | None = None, follower: LosFollower | None = None,
                  drift: CurrentObserver | None = None,
-                 water_current: Callable[[], tuple[float, float] | None] | None = None) -> None:
+                 water_current: Callable[[], tuple[float, float] | None] | None = None,
+                 arrive_short_m: float = 0.0) -> None:
         """``follower``: the previous leg's LOS follower, so the crab (integral/adaptive) estimate
         of the current carries over a corner (scaled by the cosine of the turn) instead of being
         learnt again on every leg; a new one when None.  ``drift``: the vehicle's current
         observer, for the crab feed-forward (``USV_LOS_CFF``).  ``water_current``: the
         estimator's current (:func:`estimator_current`), for the speed of a U-turn onto the leg.
         ``accept_radius_m``: the item's own radius (> 0) also caps the corner's anticipation
-        (:attr:`~companion.guidance.waypoints.LegConfig.corner_cut_max_m`); else ``WP_RADIUS``."""
+        (:attr:`~companion.guidance.waypoints.LegConfig.corner_cut_max_m`); else ``WP_RADIUS``.
+        ``arrive_short_m``: without a next point, the boat is down to the corner speed this far
+        short of ``end`` (:attr:`~companion.guidance.waypoints.LegConfig.arrive_short_m`)."""
         self.params = params
         self.drift = drift
         self.water_current = water_current
@@ -117,7 +120,8 @@ class GotoTask:
         if follower is None or follower.los_type != los_type:
             follower = LosFollower(los_gains(params), los_type)
         self.follower = follower
-        self.nav = LegNavigator(follower, leg_config(params, speed_mps, radius, corner_cut_max_m=own_radius))
+        cfg = leg_config(params, speed_mps, radius, corner_cut_max_m=own_radius)
+        self.nav = LegNavigator(follower, replace(cfg, arrive_short_m=arrive_short_m))
         nxt = self.frame.to_ne(*next_point) if next_point is not None else None
         self.nav.set_leg((0.0, 0.0), self.frame.to_ne(*end), nxt)
         self.point = end

@@ -105,8 +105,11 @@ def _nan_to_none(x: float) -> float | None:
     return None if not math.isfinite(x) else x
 
 
-async def fly(spec: CampaignSpec, sample: Sample, workdir: Path) -> dict[str, Any]:
-    """Fly ``sample``; the run's figures (see :data:`sim_bridge.campaign.results.COLUMNS`) and track."""
+async def fly(spec: CampaignSpec, sample: Sample, workdir: Path,
+              settle_s: float = SETTLE_S) -> dict[str, Any]:
+    """Fly ``sample``; the run's figures (see :data:`sim_bridge.campaign.results.COLUMNS`) and track.
+    ``settle_s``: simulated seconds adrift before arming (a boat that has been in the water a while
+    arms on a settled current estimate)."""
     config = default_config().with_overrides({"links.udp_targets": [], "links.tcp_listen": "",
                                               "links.serial": [], "links.tlog": False, **spec.config})
     state_dir = workdir / "state"
@@ -125,7 +128,7 @@ async def fly(spec: CampaignSpec, sample: Sample, workdir: Path) -> dict[str, An
         try:
             h.ctx.bus.topic(STATUS_TEXT_TOPIC).add_listener(texts.append)
             vehicle = h.services.vehicle
-            await h.run_for(SETTLE_S)
+            await h.run_for(settle_s)
             reason = vehicle.arm()
             if reason is not None or vehicle.home is None:
                 raise RunFailed(f"arming refused: {reason}")

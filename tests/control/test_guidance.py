@@ -180,6 +180,22 @@ def test_only_the_last_leg_of_a_route_slows_the_boat_down_to_stop() -> None:
     assert stopping(None) and not stopping((50.0, 50.0))
 
 
+def test_a_last_point_handed_over_short_of_it_is_reached_at_the_corner_speed_there() -> None:
+    """A circle item is taken over 15 m out (the circle law or the hold on the circle, whose first
+    leg may turn sharply): the approach is down to the corner speed there, not still braking toward
+    the centre (3.4 m/s at 15 m with 0.25 m/s^2)."""
+    def speed_at(remaining_m: float, arrive_short_m: float) -> float:
+        nav = LegNavigator(LosFollower(LosGains()), LegConfig(speed_mps=5.0, turn_speed_mps=2.0,
+                                                              arrive_short_m=arrive_short_m))
+        nav.set_leg((0.0, 0.0), (100.0, 0.0))
+        return nav.update((100.0 - remaining_m, 0.0), 5.0, 0.01).target.speed_mps
+
+    assert speed_at(15.0, 0.0) > 3.3
+    assert speed_at(15.0, 15.0) == pytest.approx(2.0)
+    assert speed_at(40.0, 15.0) < 5.0  # it still brakes on the way (0.25 m/s^2)
+    assert speed_at(100.0, 15.0) == pytest.approx(5.0)
+
+
 def _run_circle(tracker: CircleTracker, start_ne: tuple[float, float], current_ne: tuple[float, float],
                 speed_mps: float, duration_s: float) -> list[float]:
     x, y = start_ne
