@@ -124,6 +124,11 @@ def tracking(boat: Boat, points_ne: list[tuple[float, float]], radius_m: float,
     return out
 
 
+def _rounded(value: Any) -> float | None:
+    """A distance from a MAVLink field as JSON gives it (NaN arrives as null): rounded, or None."""
+    return round(float(value), 2) if isinstance(value, (int, float)) and math.isfinite(value) else None
+
+
 def sample_records(boat: Boat, points_ne: list[tuple[float, float]]) -> list[dict[str, Any] | None]:
     """The vehicle's record of the sample at each point (USV_SAMPLER_STATUS), by bottle."""
     frame = boat.frame()
@@ -134,7 +139,7 @@ def sample_records(boat: Boat, points_ne: list[tuple[float, float]]) -> list[dic
         by_bottle[bottle] = {
             "bottle": bottle, "t_s": round(boat.vehicle_time_s(s["last_sample_time_unix_usec"]), 1),
             "volume_ml": round(s["bottle_volume"][bottle - 1], 1),
-            "max_distance_m": round(s["last_sample_distance"], 2),
+            "max_distance_m": _rounded(s["last_sample_distance"]),  # NaN (null): never pumped inside
             "north_m": round(north_m, 2), "east_m": round(east_m, 2),
         }
     last = boat.rec.sampler or {}
@@ -215,6 +220,8 @@ async def sample(boat: Boat, args: argparse.Namespace) -> int:
         r = p["sample"]
         if r is None or not r["full"]:
             failures.append(f"P{p['point']}: no full bottle")
+        elif r["max_distance_m"] is None:
+            failures.append(f"P{p['point']}: the vehicle recorded no distance from the point for its sample")
         elif r["max_distance_m"] > args.accept_radius:
             failures.append(f"P{p['point']}: sampled {r['max_distance_m']} m from the point "
                             f"(limit {args.accept_radius} m)")

@@ -7,6 +7,7 @@ import asyncio
 import pytest
 
 from companion.guidance.geo import LocalFrame
+from companion.messages import STATUS_TEXT_TOPIC, Severity, StatusText
 from companion.payloads.sampler import BottleState, SampleJob, SampleRequest, WaterSampler
 
 from .helpers import LAT0, LON0, World, make_ctx
@@ -61,6 +62,32 @@ async def test_volume_from_level_sensor_stops_at_target(world: World) -> None:
     assert record is not None and record.status == "complete" and record.bottle == 3
     assert 200.0 <= record.volume_ml <= 210.0
     assert record.duration_s == pytest.approx(5.0, abs=0.3)
+
+
+async def test_a_bottle_left_with_water_in_it_gets_the_whole_sample_on_top_and_a_warning(world: World) -> None:
+    """The crew marked the bottles empty (USV_CMD_SAMPLER_RESET) but bottle 2 still reads 200 mL
+    (not emptied, or a sensor offset): the sample is the rise of the level, so the pump runs for the
+    full 200 mL, and the operator is told.  Before, the old level counted as the sample: it ended at
+    once without pumping, with no distance from the point (``usv sitl``: the second mission after
+    ``--reset-bottles``, whose simulated bottles nobody empties)."""
+    world.bottles_ml[1] = 200.0
+    world.publish_sensors()
+    texts: list[StatusText] = []
+    world.ctx.bus.topic(STATUS_TEXT_TOPIC).add_listener(texts.append)
+    sampler = WaterSampler(world.ctx, world.outputs, world.log)
+    job = sampler.start(SampleRequest(bottle=2, volume_ml=200.0))
+    assert isinstance(job, SampleJob)
+    for _ in range(400):
+        if world.outputs.current.pump_on:
+            world.bottles_ml[1] += 40.0 * 0.05
+        await world.advance(0.05)
+        if job.done.done():
+            break
+    record = await job.wait()
+    assert record is not None and record.status == "complete"
+    assert 200.0 <= record.volume_ml <= 210.0 and 400.0 <= world.bottles_ml[1] <= 410.0
+    assert record.duration_s == pytest.approx(5.0, abs=0.3)
+    assert [(t.severity, t.text) for t in texts] == [(Severity.WARNING, "sampler: bottle 2 not empty (200 mL)")]
 
 
 async def test_next_bottle_order_and_fifth_sample_refused(world: World) -> None:

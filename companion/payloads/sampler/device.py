@@ -13,8 +13,8 @@ cross the circle (the stop reaches the pump a few tenths of a second later).  Th
 records the boat's position when the pump started and ``distance_m``, the LARGEST distance from
 the commanded point while the pump ran.
 
-The volume comes from the bottle level sensor when the payload sentence reports it, else
-from ``USV_SMPL_FLOW`` times the pumping time.
+The volume comes from the bottle level sensor when the payload sentence reports it (the rise
+of the level since the sample started), else from ``USV_SMPL_FLOW`` times the pumping time.
 """
 
 from __future__ import annotations
@@ -27,7 +27,16 @@ from dataclasses import dataclass, field
 
 from companion.app import Context
 from companion.guidance.geo import LocalFrame, distance_m
-from companion.messages import BOTTLE_COUNT, NAV_TOPIC, PAYLOAD_SENSORS_TOPIC, NavState, PayloadSensors
+from companion.messages import (
+    BOTTLE_COUNT,
+    NAV_TOPIC,
+    PAYLOAD_SENSORS_TOPIC,
+    STATUS_TEXT_TOPIC,
+    NavState,
+    PayloadSensors,
+    Severity,
+    StatusText,
+)
 from companion.payloads.samplelog import SampleLog, SampleRecord
 from companion.payloads.topics import PayloadOutputs
 
@@ -44,6 +53,11 @@ PUMP_MARGIN_M = 0.1
 """... and it also stops this close to the circle (GPS noise on the distance, the pump's own
 latency): with 0.05 m the pump stopped 5.4 cm inside the 2.5 m circle at worst on the bench."""
 SENSOR_STALE_S = 3.0
+LEFT_IN_BOTTLE_ML = 20.0
+"""A bottle marked empty that reads more than this when its sample starts is announced (a
+STATUSTEXT warning): the sample's
+volume is what the level rose by (the crew may not have emptied it, or the sensor reads an
+offset), so a reading left from the last mission does not count as this sample's water."""
 
 
 class BottleState(enum.IntEnum):
@@ -233,6 +247,10 @@ class WaterSampler:
         timeout_s = params.get("USV_SMPL_TMO_S")
         start_s = clock.now_s()
         start_sensed = self.sensed_volume_ml(job.bottle)
+        if start_sensed is not None and start_sensed > LEFT_IN_BOTTLE_ML:
+            self.ctx.bus.topic(STATUS_TEXT_TOPIC).publish(StatusText(
+                t_s=clock.now_s(), severity=Severity.WARNING,
+                text=f"sampler: bottle {job.bottle} not empty ({start_sensed:.0f} mL)"))
         pumped_s = 0.0
         volume = 0.0
         max_dist: float | None = None
@@ -254,16 +272,18 @@ class WaterSampler:
                     pumped_s += TICK_S
                 sensed = self.sensed_volume_ml(job.bottle)
                 if sensed is not None and start_sensed is not None:
-                    volume = max(0.0, sensed)
+                    volume = max(0.0, sensed - start_sensed)  # what this sample added
+                    brimful = sensed >= capacity
                 else:
                     volume = min(capacity, flow * pumped_s)
+                    brimful = volume >= capacity
                 if target_ml is not None:
                     job.progress_pct = min(99, int(100 * volume / target_ml))
                     finished = volume >= target_ml
                 else:
                     job.progress_pct = min(99, int(100 * pumped_s / fill_s))
                     finished = pumped_s >= fill_s - 1e-9
-                if finished or volume >= capacity:
+                if finished or brimful:
                     job.status = "complete"
                     break
                 if clock.now_s() - start_s >= timeout_s:
