@@ -64,7 +64,8 @@ async def test_volume_from_level_sensor_stops_at_target(world: World) -> None:
     assert record.duration_s == pytest.approx(5.0, abs=0.3)
 
 
-async def test_a_bottle_left_with_water_in_it_gets_the_whole_sample_on_top_and_a_warning(world: World) -> None:
+async def test_a_bottle_left_with_water_in_it_gets_the_whole_sample_on_top_and_a_warning(
+        world: World) -> None:
     """The crew marked the bottles empty (USV_CMD_SAMPLER_RESET) but bottle 2 still reads 200 mL
     (not emptied, or a sensor offset): the sample is the rise of the level, so the pump runs for the
     full 200 mL, and the operator is told.  Before, the old level counted as the sample: it ended at
@@ -87,7 +88,8 @@ async def test_a_bottle_left_with_water_in_it_gets_the_whole_sample_on_top_and_a
     assert record is not None and record.status == "complete"
     assert 200.0 <= record.volume_ml <= 210.0 and 400.0 <= world.bottles_ml[1] <= 410.0
     assert record.duration_s == pytest.approx(5.0, abs=0.3)
-    assert [(t.severity, t.text) for t in texts] == [(Severity.WARNING, "sampler: bottle 2 not empty (200 mL)")]
+    warning = (Severity.WARNING, "sampler: bottle 2 not empty (200 mL)")
+    assert [(t.severity, t.text) for t in texts] == [warning]
 
 
 async def test_next_bottle_order_and_fifth_sample_refused(world: World) -> None:

@@ -55,9 +55,9 @@ latency): with 0.05 m the pump stopped 5.4 cm inside the 2.5 m circle at worst o
 SENSOR_STALE_S = 3.0
 LEFT_IN_BOTTLE_ML = 20.0
 """A bottle marked empty that reads more than this when its sample starts is announced (a
-STATUSTEXT warning): the sample's
-volume is what the level rose by (the crew may not have emptied it, or the sensor reads an
-offset), so a reading left from the last mission does not count as this sample's water."""
+STATUSTEXT warning; the crew may not have emptied it, or the sensor reads an offset).  Either way
+the sample's volume is what the level rose by: a reading left from the last mission does not count
+as this sample's water."""
 
 
 class BottleState(enum.IntEnum):
