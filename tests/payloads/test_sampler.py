@@ -8,6 +8,7 @@ import pytest
 
 from companion.guidance.geo import LocalFrame
 from companion.messages import STATUS_TEXT_TOPIC, Severity, StatusText
+from companion.payloads.samplelog import SampleRecord
 from companion.payloads.sampler import BottleState, SampleJob, SampleRequest, WaterSampler
 
 from .helpers import LAT0, LON0, World, make_ctx
@@ -47,18 +48,25 @@ async def test_sample_runs_valve_then_pump_and_logs(world: World) -> None:
     assert first_valve < first_pump  # valve opens before the pump runs
 
 
+async def _fill_sensed_bottle(world: World, job: SampleJob, bottle: int,
+                             within_s: float) -> SampleRecord | None:
+    """While the pump runs, the real bottle ``bottle`` (its level sensor) fills at 40 mL/s; the
+    sample's record once it is done (at most ``within_s``)."""
+    for _ in range(round(within_s / 0.05)):
+        if world.outputs.current.pump_on:
+            world.bottles_ml[bottle - 1] += 40.0 * 0.05
+        await world.advance(0.05)
+        if job.done.done():
+            break
+    return await job.wait()
+
+
 async def test_volume_from_level_sensor_stops_at_target(world: World) -> None:
     world.publish_sensors()
     sampler = WaterSampler(world.ctx, world.outputs, world.log)
     job = sampler.start(SampleRequest(bottle=3, volume_ml=200.0))
     assert isinstance(job, SampleJob)
-    for _ in range(200):
-        if world.outputs.current.pump_on:
-            world.bottles_ml[2] += 40.0 * 0.05  # the real bottle fills at 40 mL/s
-        await world.advance(0.05)
-        if job.done.done():
-            break
-    record = await job.wait()
+    record = await _fill_sensed_bottle(world, job, 3, 10.0)
     assert record is not None and record.status == "complete" and record.bottle == 3
     assert 200.0 <= record.volume_ml <= 210.0
     assert record.duration_s == pytest.approx(5.0, abs=0.3)
@@ -78,13 +86,7 @@ async def test_a_bottle_left_with_water_in_it_gets_the_whole_sample_on_top_and_a
     sampler = WaterSampler(world.ctx, world.outputs, world.log)
     job = sampler.start(SampleRequest(bottle=2, volume_ml=200.0))
     assert isinstance(job, SampleJob)
-    for _ in range(400):
-        if world.outputs.current.pump_on:
-            world.bottles_ml[1] += 40.0 * 0.05
-        await world.advance(0.05)
-        if job.done.done():
-            break
-    record = await job.wait()
+    record = await _fill_sensed_bottle(world, job, 2, 20.0)
     assert record is not None and record.status == "complete"
     assert 200.0 <= record.volume_ml <= 210.0 and 400.0 <= world.bottles_ml[1] <= 410.0
     assert record.duration_s == pytest.approx(5.0, abs=0.3)
