@@ -129,11 +129,15 @@ def _rounded(value: Any) -> float | None:
     return round(float(value), 2) if isinstance(value, (int, float)) and math.isfinite(value) else None
 
 
-def sample_records(boat: Boat, points_ne: list[tuple[float, float]]) -> list[dict[str, Any] | None]:
-    """The vehicle's record of the sample at each point (USV_SAMPLER_STATUS), by bottle."""
+def sample_records(boat: Boat, points_ne: list[tuple[float, float]],
+                   since_s: float) -> list[dict[str, Any] | None]:
+    """The vehicle's record of the sample at each point (USV_SAMPLER_STATUS), by bottle, of the
+    samples taken since vehicle time ``since_s`` (the first status names the last mission's)."""
     frame = boat.frame()
     by_bottle: dict[int, dict[str, Any]] = {}
     for s in boat.rec.samples:
+        if boat.vehicle_time_s(s["last_sample_time_unix_usec"]) < since_s:
+            continue
         bottle = s["last_sample_bottle"]
         north_m, east_m = frame.to_ne(s["last_sample_lat"] / 1e7, s["last_sample_lon"] / 1e7)
         by_bottle[bottle] = {
@@ -206,7 +210,7 @@ async def sample(boat: Boat, args: argparse.Namespace) -> int:
     start_s = await boat.run_raw_mission(plan(boat.frame(), points_ne, radius_m, args), args.timeout,
                                          lambda seq: names[seq])
     track_err = tracking(boat, points_ne, radius_m, args.accept_radius)
-    records = sample_records(boat, points_ne)
+    records = sample_records(boat, points_ne, start_s)
     home_m = await boat.go_home_and_disarm(wp_radius_m, args.timeout)
     save_figure(args.figure, boat, points_ne, radius_m, args.accept_radius, track_err, records)
     points = [{"point": i, "north_m": round(p[0], 1), "east_m": round(p[1], 1),
@@ -215,20 +219,30 @@ async def sample(boat: Boat, args: argparse.Namespace) -> int:
     summary = {"radius_m": radius_m, "accept_radius_m": args.accept_radius, "points": points,
                "mission_time_s": round(boat.now_s() - start_s, 1), "figure": str(args.figure),
                "home_distance_at_disarm_m": round(home_m, 2), "wp_radius_m": wp_radius_m}
+    return finish(NAME, summary, judge(points, args), args.json, print_summary)
+
+
+def judge(points: list[dict[str, Any]], args: argparse.Namespace) -> list[str]:
+    """The run's failures, per point: no sample (the vehicle refused or skipped it, and its
+    messages say why; the boat did not circle there, so no tracking error is judged), a bottle not
+    full, a sample with no distance or too far from the point, a tracking error over the limit."""
     failures = []
     for p in points:
-        r = p["sample"]
-        if r is None or not r["full"]:
-            failures.append(f"P{p['point']}: no full bottle")
+        name, r = f"P{p['point']}", p["sample"]
+        if r is None:
+            failures.append(f"{name}: no sample (the vehicle refused or skipped it; see its messages)")
+            continue
+        if not r["full"]:
+            failures.append(f"{name}: bottle {r['bottle']} not full")
         elif r["max_distance_m"] is None:
-            failures.append(f"P{p['point']}: the vehicle recorded no distance from the point for its sample")
+            failures.append(f"{name}: the vehicle recorded no distance from the point for its sample")
         elif r["max_distance_m"] > args.accept_radius:
-            failures.append(f"P{p['point']}: sampled {r['max_distance_m']} m from the point "
+            failures.append(f"{name}: sampled {r['max_distance_m']} m from the point "
                             f"(limit {args.accept_radius} m)")
         if p["max_track_error_m"] > args.max_track_error:
-            failures.append(f"P{p['point']}: tracking error {p['max_track_error_m']} m "
+            failures.append(f"{name}: tracking error {p['max_track_error_m']} m "
                             f"(limit {args.max_track_error} m)")
-    return finish(NAME, summary, failures, args.json, print_summary)
+    return failures
 
 
 def print_summary(s: dict[str, Any]) -> None:
