@@ -136,12 +136,13 @@ def sample_records(boat: Boat, points_ne: list[tuple[float, float]],
     frame = boat.frame()
     by_bottle: dict[int, dict[str, Any]] = {}
     for s in boat.rec.samples:
-        if boat.vehicle_time_s(s["last_sample_time_unix_usec"]) < since_s:
+        t_s = boat.vehicle_time_s(s["last_sample_time_unix_usec"])
+        if t_s < since_s:
             continue
         bottle = s["last_sample_bottle"]
         north_m, east_m = frame.to_ne(s["last_sample_lat"] / 1e7, s["last_sample_lon"] / 1e7)
         by_bottle[bottle] = {
-            "bottle": bottle, "t_s": round(boat.vehicle_time_s(s["last_sample_time_unix_usec"]), 1),
+            "bottle": bottle, "t_s": round(t_s, 1),
             "volume_ml": round(s["bottle_volume"][bottle - 1], 1),
             "max_distance_m": _rounded(s["last_sample_distance"]),  # NaN (null): never pumped inside
             "north_m": round(north_m, 2), "east_m": round(east_m, 2),
