@@ -196,9 +196,7 @@ class DriftOrbit:
     """Circle ``centre_ne`` at ``radius_m`` through a known current (module docstring)."""
 
     def __init__(self, centre_ne: tuple[float, float], radius_m: float, clockwise: bool = True,
-                 gains: OrbitGains | None = None, joined: bool = False) -> None:
-        """``joined``: the boat is on the circle going round it this orbit's way (a leg along a
-        tangent, :func:`tangent_point_ne`), so there is no entry turn even inside the circle."""
+                 gains: OrbitGains | None = None) -> None:
         if not (radius_m > 0 and math.isfinite(radius_m)):
             raise ValueError(f"orbit radius must be positive, got {radius_m}")
         self.centre_ne = centre_ne
@@ -206,7 +204,7 @@ class DriftOrbit:
         self.lam = 1.0 if clockwise else -1.0
         self.gains = gains or OrbitGains()
         self.integral_m = 0.0
-        self._entering = not joined
+        self._entering = True
         self._turned_rad = 0.0
         self._last_heading_rad: float | None = None
 
@@ -270,30 +268,6 @@ class DriftOrbit:
         rate = chi_rate * (1.0 + c_par / (u_w * cos_crab))
         surge = u_w + cn * math.cos(psi) + ce * math.sin(psi)
         return HoldOutput(wrap_2pi(psi), surge, rate, d, e_r)
-
-
-def tangent_point_ne(start_ne: tuple[float, float], radius_m: float,
-                     clockwise: bool) -> tuple[float, float] | None:
-    """Where a straight leg from ``start_ne`` (relative to an orbit's centre) touches the circle of
-    ``radius_m`` so that the boat goes on round it clockwise (the centre on its right) or
-    counter-clockwise; ``None`` from within 1.5 radii of the centre (no leg to speak of).  The
-    leg meets the circle at its tangent: the orbit then starts without a turn across it (entered
-    at its centre, a jet boat that cannot stop swings out twice its turning radius)."""
-    d_m = math.hypot(*start_ne)
-    if not (math.isfinite(d_m) and radius_m > 0.0) or d_m < 1.5 * radius_m:
-        return None
-    to_centre = math.atan2(-start_ne[1], -start_ne[0])
-    off = math.asin(radius_m / d_m)
-    course = to_centre - off if clockwise else to_centre + off
-    length_m = math.sqrt(d_m * d_m - radius_m * radius_m)
-    return start_ne[0] + length_m * math.cos(course), start_ne[1] + length_m * math.sin(course)
-
-
-def tangent_clockwise(start_ne: tuple[float, float], heading_rad: float) -> bool:
-    """The way round for a leg from ``start_ne`` (relative to the centre) onto the circle's tangent:
-    the side whose leg is nearer the boat's heading (either in slack water; nearer turns less)."""
-    to_centre = math.atan2(-start_ne[1], -start_ne[0])
-    return wrap_pi(to_centre - heading_rad) >= 0.0
 
 
 ENTRY_CURRENT_MPS = 0.15

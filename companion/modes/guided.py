@@ -46,8 +46,7 @@ class GuidedMode(NavMode):
         if target is not None and target is not self._target:
             self._target = target
             speed = wp_speed_mps(params, target.speed_mps)
-            self.task = goto_task(host, (nav.lat_deg, nav.lon_deg), (target.lat_deg, target.lon_deg), speed,
-                                  try_station=True, heading_rad=nav.heading_rad)
+            self.task = goto_task(host, (nav.lat_deg, nav.lon_deg), (target.lat_deg, target.lon_deg), speed)
         task = self.task
         arriving = isinstance(task, GotoTask | ApproachTask | BrakingGoto) and task.reached
         if arriving and self._target is not None:
@@ -55,8 +54,7 @@ class GuidedMode(NavMode):
             if self._target.radius_m and self._target.radius_m > 0:
                 self.task = CircleTask(params, point, self._target.radius_m)
             else:
-                joined = task.joined(nav) if isinstance(task, BrakingGoto) else None
-                self.task = (hold_task(host, point, nav, try_station=True, joined_clockwise=joined)
+                self.task = (hold_task(host, point, nav, try_station=True)
                              or StationTask(params, point, nav.heading_rad))
         dt = self.dt(nav)
         self.task = orbit_if_creeping(host, nav, self.task, self.watch, dt)

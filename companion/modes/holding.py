@@ -24,7 +24,7 @@ from dataclasses import replace
 from companion.angles import current_along_mps, upstream_rad
 from companion.control.target import ControlTarget
 from companion.guidance.bow_turn import KeeperTurn, downstream_speed_mps
-from companion.guidance.geo import LocalFrame, along_across_m, wrap_2pi, wrap_pi
+from companion.guidance.geo import LocalFrame, along_across_m, wrap_2pi
 from companion.guidance.hold_params import HOLD_CURRENT, current_station_gains, orbit_gains
 from companion.guidance.holding import (
     CurrentStationKeeper,
@@ -32,8 +32,6 @@ from companion.guidance.holding import (
     HoldStrategy,
     orbit_clockwise,
     pick_strategy,
-    tangent_clockwise,
-    tangent_point_ne,
 )
 from companion.guidance.los import LosFollower
 from companion.messages import CurrentEstimate, NavState
@@ -103,14 +101,11 @@ class OrbitTask:
     strategy = HoldStrategy.ORBIT
 
     def __init__(self, params: ParamStore, point: tuple[float, float], current: CurrentSource,
-                 initial_ne_mps: tuple[float, float], clockwise: bool = True, joined: bool = False) -> None:
-        """``joined``: the boat arrives on the circle going round it ``clockwise``'s way
-        (:class:`BrakingGoto` along a tangent): no entry turn."""
+                 initial_ne_mps: tuple[float, float], clockwise: bool = True) -> None:
         self.frame = LocalFrame(*point)
         self.point = point
         self.current = _Held(current, initial_ne_mps)
-        self.orbit = DriftOrbit((0.0, 0.0), params.get("USV_TURN_RAD"), clockwise, orbit_gains(params),
-                                joined)
+        self.orbit = DriftOrbit((0.0, 0.0), params.get("USV_TURN_RAD"), clockwise, orbit_gains(params))
         self.radius_m = self.orbit.radius_m
         self.distance_m = 0.0
         self.radial_error_m = 0.0
@@ -172,15 +167,13 @@ def tries_station(host: ModeHost, est: CurrentEstimate) -> bool:
             and not host.station_trials.ruled_out(current, host.now_s()))
 
 
-def hold_task(host: ModeHost, point: tuple[float, float], nav: NavState, try_station: bool = False,
-              joined_clockwise: bool | None = None) -> CurrentStationTask | OrbitTask | None:
+def hold_task(host: ModeHost, point: tuple[float, float], nav: NavState,
+              try_station: bool = False) -> CurrentStationTask | OrbitTask | None:
     """The task that holds ``point`` (lat, lon) in the current of this moment (:func:`strategy`),
     ``None``: LEGACY.  ``try_station`` (LOITER, GUIDED): a current weaker than the creep is first
     held bow into it (:func:`tries_station`).  RTL does not try: AUTO, which usually follows it,
     joins its first leg from the hold's orbit, and from rest bow into the current it turned onto
-    the leg the long way round (tuning grid: square 1.6 -> 6.7 m in one cell).
-    ``joined_clockwise`` (:meth:`BrakingGoto.joined`): the boat is on the orbit's circle going
-    round it that way, so an orbit goes on that way with no entry turn."""
+    the leg the long way round (tuning grid: square 1.6 -> 6.7 m in one cell)."""
     kind = strategy(host)
     est = host.water_current
     if kind == HoldStrategy.LEGACY or est is None:
@@ -193,8 +186,6 @@ def hold_task(host: ModeHost, point: tuple[float, float], nav: NavState, try_sta
         heading = nav.heading_rad if math.cos(nav.heading_rad - upstream) > 0.0 else upstream
         return CurrentStationTask(host.params, point, heading, _current_source(host), current,
                                   trial=trial, started_s=nav.t_s)
-    if joined_clockwise is not None:
-        return OrbitTask(host.params, point, _current_source(host), current, joined_clockwise, joined=True)
     return OrbitTask(host.params, point, _current_source(host), current,
                      orbit_clockwise(nav.heading_rad, nav.r_radps, current))
 
@@ -278,86 +269,38 @@ class ApproachTask:
 
 
 ARRIVAL_DECEL_MPS2 = 0.3
-"""Braking profile of :class:`BrakingGoto` onto the point itself (the jet slows by drag only)."""
-TANGENT_MAX_CURRENT_MPS = 0.15
-"""Up to this estimated current (slack water) GUIDED and RTL arrive along a tangent of the orbit's
-circle (:class:`BrakingGoto`); in a stronger one the leg ends on the point as before (tried in
-0.3-0.8 m/s: the leg's crab and the wind put the boat across the circle, and RTL's arrival got
-worse in half the cells, ``docs/tuning.md``)."""
-COAST_PER_M = 0.06
-"""The tangent leg's speed limit ``v_end exp(COAST_PER_M s)``, ``s`` metres to go: what the idling
-jet can shed by drag (measured coast-down: 3 -> 2 m/s in 4.3 m, 1.5 in 6.8 m, 1.0 in 11 m, i.e.
-about ``exp(-0.1 s)``) with a margin; the constant-deceleration profile asks for more than drag
-gives below 2 m/s, and the boat reached the circle 0.6 m/s fast."""
-SPEED_LAW_LAG_MPS = 0.3
-"""The tangent leg's end speed is the orbit's less this (at least :data:`TANGENT_END_MIN_MPS`): the
-speed law follows a braking profile about this much fast (``docs/tuning.md``)."""
-TANGENT_END_MIN_MPS = 0.4
-JOIN_COURSE_TOL_RAD = math.radians(45.0)
-"""A tangent leg hands over as a joined orbit only with the boat's course this close to the
-circle's tangent the orbit's way; otherwise the orbit enters as it does from anywhere else."""
+"""Braking profile of :class:`BrakingGoto` (the jet slows by drag only)."""
 
 
 class BrakingGoto:
     """The leg to a point that will be orbited, slowed so that the boat arrives at the orbit's
     speed: ``speed <= sqrt(v_end^2 + 2 a d)``, ``v_end`` the orbit's water speed plus the current
     along the leg.  In-process lockstep, tuning cells 0.3-0.5 m/s: after-arrival maximum 7.3-10.6 m
-    at the leg's corner speed, 5.2-7.8 m braked; RTL 6.0-14.4 -> 6.0-13.7 m.
+at the leg's corner speed, 5.2-7.8 m braked; RTL 6.0-14.4 -> 6.0-13.7 m."""
 
-    With ``clockwise`` set, ``goto`` is a leg to the point where it touches the orbit's circle
-    (:func:`~companion.guidance.holding.tangent_point_ne`), braked by drag's measure
-    (:data:`COAST_PER_M`) to the orbit's speed there; it is :attr:`reached` there, or as soon as the
-    boat is within the circle.  ``point``/``end`` stay the point to be held and :attr:`distance_m`
-    the distance from it."""
-
-    def __init__(self, goto: GotoTask, arrive_speed_mps: float, point: tuple[float, float] | None = None,
-                 clockwise: bool | None = None, radius_m: float = 0.0) -> None:
+    def __init__(self, goto: GotoTask, arrive_speed_mps: float) -> None:
         self.goto = goto
-        self.frame = goto.frame
-        self.point = self.end = point if point is not None else goto.end
-        self.clockwise = clockwise
-        self.radius_m = radius_m
-        self._point_frame = LocalFrame(*self.end)
+        self.frame, self.point, self.end = goto.frame, goto.point, goto.end
         self.arrive_speed_mps = arrive_speed_mps
         self.distance_m = math.inf
         self.cross_track_m = 0.0
 
     @property
     def reached(self) -> bool:
-        return self.goto.reached or (self.clockwise is not None and self.distance_m <= self.radius_m)
-
-    def joined(self, nav: NavState) -> bool | None:
-        """The way round the boat joins the orbit (True clockwise), or ``None``: not a tangent leg,
-        or the boat's course over ground is off the circle's tangent by more than
-        :data:`JOIN_COURSE_TOL_RAD` (the wind set it across)."""
-        if self.clockwise is None:
-            return None
-        n_m, e_m = self._point_frame.to_ne(nav.lat_deg, nav.lon_deg)
-        tangent_rad = math.atan2(e_m, n_m) + (0.5 if self.clockwise else -0.5) * math.pi
-        course_rad = math.atan2(nav.vel_east_mps, nav.vel_north_mps)
-        return self.clockwise if abs(wrap_pi(course_rad - tangent_rad)) <= JOIN_COURSE_TOL_RAD else None
+        return self.goto.reached
 
     def step(self, nav: NavState, dt_s: float) -> ControlTarget:
         target = self.goto.step(nav, dt_s)
-        self.distance_m = math.hypot(*self._point_frame.to_ne(nav.lat_deg, nav.lon_deg))
-        self.cross_track_m = self.goto.cross_track_m
-        to_go_m = self.goto.distance_m
-        if self.clockwise is not None:
-            limit = self.arrive_speed_mps * math.exp(COAST_PER_M * to_go_m)
-        else:
-            limit = math.sqrt(self.arrive_speed_mps**2 + 2.0 * ARRIVAL_DECEL_MPS2 * to_go_m)
+        self.distance_m, self.cross_track_m = self.goto.distance_m, self.goto.cross_track_m
+        limit = math.sqrt(self.arrive_speed_mps**2 + 2.0 * ARRIVAL_DECEL_MPS2 * self.distance_m)
         return replace(target, speed_mps=min(target.speed_mps, limit))
 
 
 def goto_task(host: ModeHost, start: tuple[float, float], end: tuple[float, float], speed_mps: float,
-              accept_radius_m: float | None = None, try_station: bool = False,
-              heading_rad: float = 0.0) -> GotoTask | ApproachTask | BrakingGoto:
+              accept_radius_m: float | None = None) -> GotoTask | ApproachTask | BrakingGoto:
     """The leg GUIDED/RTL fly to a point they will hold: in a current to be stemmed an
     :class:`ApproachTask` (arrive bow into it), in a weaker one a :class:`BrakingGoto` (arrive at
-    the orbit's speed), without an estimate the plain :class:`GotoTask`.  In slack water
-    (:data:`TANGENT_MAX_CURRENT_MPS`) a hold that will orbit (not a station trial: ``try_station``,
-    :func:`tries_station`) is arrived at along the tangent of the orbit's circle nearer the boat's
-    ``heading_rad`` (:func:`tangent_leg`)."""
+    the orbit's speed), without an estimate the plain :class:`GotoTask`."""
     est = host.water_current
     kind = strategy(host)
     if kind == HoldStrategy.STATION and est is not None:
@@ -369,37 +312,10 @@ def goto_task(host: ModeHost, start: tuple[float, float], end: tuple[float, floa
         leg_n, leg_e = goto.frame.to_ne(*end)
         leg_m = max(1e-6, math.hypot(leg_n, leg_e))
         along = (est.north_mps * leg_n + est.east_mps * leg_e) / leg_m
-        arrive_mps = max(0.5, host.params.get("USV_HOLD_ORB_SPD") + along)
-        if math.hypot(est.north_mps, est.east_mps) <= TANGENT_MAX_CURRENT_MPS \
-                and not (try_station and tries_station(host, est)):
-            tangent = tangent_leg(host, start, end, speed_mps, arrive_mps, heading_rad)
-            if tangent is not None:
-                return tangent
-        return BrakingGoto(goto, arrive_mps)
+        return BrakingGoto(goto, max(0.5, host.params.get("USV_HOLD_ORB_SPD") + along))
     return goto
 
 
-def tangent_leg(host: ModeHost, start: tuple[float, float], end: tuple[float, float], speed_mps: float,
-                arrive_mps: float, heading_rad: float) -> BrakingGoto | None:
-    """The :class:`BrakingGoto` along the tangent of ``end``'s orbit circle (``USV_TURN_RAD``) that
-    is nearer ``heading_rad`` (:func:`~companion.guidance.holding.tangent_clockwise`), ending at the
-    orbit's speed less :data:`SPEED_LAW_LAG_MPS`; ``None`` from within 1.5 radii of ``end``."""
-    radius_m = host.params.get("USV_TURN_RAD")
-    frame = LocalFrame(*end)
-    start_ne = frame.to_ne(*start)
-    clockwise = tangent_clockwise(start_ne, heading_rad)
-    touch_ne = tangent_point_ne(start_ne, radius_m, clockwise)
-    if touch_ne is None:
-        return None
-    leg = GotoTask(host.params, start, frame.to_lat_lon(*touch_ne), speed_mps, TANGENT_ACCEPT_M,
-                   water_current=estimator_current(host))
-    end_mps = max(TANGENT_END_MIN_MPS, arrive_mps - SPEED_LAW_LAG_MPS)
-    return BrakingGoto(leg, end_mps, end, clockwise, radius_m)
-
-
-TANGENT_ACCEPT_M = 0.5
-"""The tangent leg's acceptance radius round the point where it touches the circle (it is mostly
-reached by passing that point, or by entering the circle)."""
 STOP_WITHIN_M = 1.0
 """Engine-stop holding: the return leg's acceptance radius (the engine stops there)."""
 RETURN_SPEED_MPS = 2.0

@@ -30,7 +30,7 @@ class RtlMode(NavMode):
         params = host.params
         home = (host.home.lat_deg, host.home.lon_deg)
         self.task = goto_task(host, (nav.lat_deg, nav.lon_deg), home, wp_speed_mps(params),
-                              param(params, "WP_RADIUS"), heading_rad=nav.heading_rad)
+                              param(params, "WP_RADIUS"))
 
     def update(self, host: ModeHost, nav: NavState) -> ModeOutput:
         task = self.task
@@ -38,8 +38,7 @@ class RtlMode(NavMode):
             near = task.distance_m <= param(host.params, "WP_RADIUS")
             host.status("RTL: home reached, keeping station" if near
                         else f"RTL: {task.distance_m:.0f} m from home, bow into the current: braking onto it")
-            joined = task.joined(nav) if isinstance(task, BrakingGoto) else None
-            self.task = (hold_task(host, task.end, nav, joined_clockwise=joined)
+            self.task = (hold_task(host, task.end, nav)
                          or StationTask(host.params, task.end, nav.heading_rad))
         dt = self.dt(nav)
         self.task = orbit_if_creeping(host, nav, self.task, self.watch, dt)

@@ -17,8 +17,6 @@ from companion.guidance.holding import (
     going_round_clockwise,
     orbit_clockwise,
     pick_strategy,
-    tangent_clockwise,
-    tangent_point_ne,
 )
 
 
@@ -217,25 +215,3 @@ def test_orbit_direction_in_slack_water_is_the_way_the_boat_already_turns() -> N
 def test_an_orbit_taken_up_off_its_circle_goes_round_the_way_the_boat_goes(
         offset_ne: tuple[float, float], velocity_ne: tuple[float, float], clockwise: bool | None) -> None:
     assert going_round_clockwise(offset_ne, velocity_ne, 2.0) is clockwise
-
-
-@pytest.mark.parametrize("clockwise", [True, False])
-def test_a_tangent_leg_touches_the_orbit_circle_with_the_centre_on_its_way_round(clockwise: bool) -> None:
-    """From 30 m south-west of the centre, the leg ends on the 2 m circle where it is tangent (the
-    radius there is square to the leg), with the centre on the boat's right going clockwise."""
-    start = (-21.2, -21.2)
-    touch = tangent_point_ne(start, 2.0, clockwise)
-    assert touch is not None
-    assert math.hypot(*touch) == pytest.approx(2.0)
-    leg = (touch[0] - start[0], touch[1] - start[1])
-    assert leg[0] * touch[0] + leg[1] * touch[1] == pytest.approx(0.0, abs=1e-9)
-    right_of_leg = leg[0] * (-touch[1]) - leg[1] * (-touch[0])  # centre from the touch point, leg x it
-    assert (right_of_leg > 0.0) == clockwise
-    assert tangent_point_ne((2.5, 0.0), 2.0, clockwise) is None  # within 1.5 radii: no leg
-
-
-@pytest.mark.parametrize(("heading_deg", "expected"), [(30.0, True), (60.0, False)])
-def test_the_tangent_nearer_the_bow_is_the_one_flown(heading_deg: float, expected: bool) -> None:
-    """The centre bears 45 deg from the boat: heading left of it, the leg left of the centre
-    (going round clockwise) turns less; heading right of it, the counter-clockwise one."""
-    assert tangent_clockwise((-21.2, -21.2), math.radians(heading_deg)) is expected

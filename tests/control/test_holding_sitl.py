@@ -148,16 +148,14 @@ async def test_loiter_orbit_in_wind_against_a_weak_current_stays_near_its_point(
     """0.3 m/s toward E with 6 m/s of wind and Hs 0.3 m waves against it (usv bench nav's third
     weather slot, tuning seed 3): the boat cannot stand on its point and orbits it; the wind
     pushes it off the orbit's circle, and the orbit brings it round with the thrust a jet needs to
-    turn.  Within 4.5 m of the entry point over 120 s, 4 m over the last 60 s (measured 3.7 and
-    3.7 m; 4.3 and 3.0 m when GUIDED's leg ended on the point itself rather than along the orbit's
-    circle, so that LOITER started elsewhere on GUIDED's orbit; with the active model's low-speed
-    turn cap on the orbit, 7.0 and 4.0 m)."""
+    turn.  Within 5 m of the entry point over 120 s, 3.5 m over the last 60 s (measured 4.3 and
+    3.0 m; with the active model's low-speed turn cap on the orbit, 7.0 and 4.0 m)."""
     async with SitlHarness(seed=3, current="0.3,90", wind="6,90", waves="0.3", full_stack=True) as h:
         vehicle = h.services.vehicle
         await _guided_to_the_point_and_hold(h)
         dists = await _loiter_from_here(h, 240)
         assert isinstance(vehicle.modes.current.task, OrbitTask)
-        assert max(dists) < 4.5 and max(dists[120:]) < 4.0
+        assert max(dists) < 5.0 and max(dists[120:]) < 3.5
 
 
 async def test_loiter_in_slack_water_can_stop_the_engine_and_drift() -> None:
@@ -294,27 +292,3 @@ async def test_loiter_entered_while_the_boat_circles_turns_on_into_its_orbit_not
         assert abs(h.plant.state.r_radps) > math.radians(20.0)  # circling when LOITER starts
         dists = await _loiter_from_here(h, 60, every_step=OrbitTask)
         assert max(dists) < 4.0
-
-
-async def test_guided_and_rtl_in_slack_water_arrive_along_the_orbit_circle_not_through_the_point() -> None:
-    """Calm water: GUIDED to the go-to point, then RTL home, each arriving along a tangent of the
-    2 m orbit circle at about the orbit's speed.  From the first moment within 2 m of its point,
-    the boat stays within 3 m of it for 30 s (measured 2.37 m for GUIDED and 2.70 m for RTL; a
-    leg to the point itself reached it at 2.1 m/s, and the orbit's entry turn at the point swung
-    the boat out 3.96 m both times)."""
-    async with SitlHarness(seed=1, full_stack=True) as h:
-        vehicle = h.services.vehicle
-        assert await _guided_to_the_point(h, 60.0, 0.05)
-        guided_m = [math.dist(_pos(h), GOTO_NE)]
-        for _ in range(600):
-            await h.run_for(0.05)
-            guided_m.append(math.dist(_pos(h), GOTO_NE))
-        assert isinstance(vehicle.modes.current.task, OrbitTask)
-        assert max(guided_m) < 3.0
-        assert vehicle.set_mode(ModeNumber.RTL) is None
-        assert await h.run_until(lambda: math.hypot(*_pos(h)) < 2.0, 60.0, 0.05)
-        rtl_m = [math.hypot(*_pos(h))]
-        for _ in range(600):
-            await h.run_for(0.05)
-            rtl_m.append(math.hypot(*_pos(h)))
-        assert max(rtl_m) < 3.0
