@@ -17,7 +17,7 @@ from companion.estimation.service import (
     load_companion_ukf_backend,
     load_companion_ukf_settings,
 )
-from companion.messages import NAV_TOPIC, ActuatorCommand, CurrentEstimate, NavState
+from companion.messages import NAV_TOPIC, ActuatorCommand, CurrentEstimate, ModeNumber, NavState
 from companion.models.current_ukf import control_filter_settings, current_filter_settings
 
 
@@ -227,7 +227,7 @@ async def test_starting_from_rest_in_calm_water_reports_no_confident_current(see
         await h.run_for(0.6)
         assert vehicle.arm() is None
         await h.run_for(0.1)
-        assert vehicle.set_mode(15) is None
+        assert vehicle.set_mode(ModeNumber.GUIDED) is None
         claimed = []
         for _ in range(100):
             await h.run_for(0.1)
