@@ -59,13 +59,16 @@ CREEP_ABEAM_M = 8.0
 """Below the idle creep the abeam point is this far outside the circle (at 5 m the boat came in at
 speed and ran through the hold point and the circle)."""
 CREEP_BELOW_M = 8.0
-CREEP_CLEAR_M = 1.0
+CREEP_CLEAR_M = 2.0
 """Below the idle creep the legs end CREEP_BELOW_M straight downstream of the hold point (via the
-abeam point when the way there would pass within CREEP_CLEAR_M of the circle), and the station
-keeper brings the boat up the current onto the hold point, bow into it: the current brakes the
-boat.  Handed over at the abeam point, across the current, a boat coming from across with the wind
-astern coasted on at 1.5-2 m/s at idle while the bow came round, through the hold point and the
-circle (the flood's first point, tuning seeds: 6-7 m; ``docs/tuning.md``)."""
+abeam point when the way there would pass within CREEP_CLEAR_M of the circle: at 1 m a leg from the
+south-south-west passed 3.2 m from a 2 m circle's centre, 0.7 m outside the sampler's 2.5 m circle,
+and a boat cutting inside it at the hand-over started the pump there, so the loop onto the hold
+counted in Fig. 13; ``docs/tuning.md``), and the station keeper brings the boat up the current
+onto the hold point, bow into it: the current brakes the boat.  Handed over at the abeam point,
+across the current, a boat coming from across with the wind astern coasted on at 1.5-2 m/s at idle
+while the bow came round, through the hold point and the circle (the flood's first point, tuning
+seeds: 6-7 m; ``docs/tuning.md``)."""
 CREEP_HOLD_DOWNSTREAM_RAD = math.radians(30.0)
 """Below the idle creep the hold point is this far round the circle downstream of the line
 across the current (the creep upstream then runs along a chord of the circle)."""

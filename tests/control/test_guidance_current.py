@@ -3,6 +3,7 @@ cannot circle in (issue 14)."""
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable
 
@@ -11,7 +12,7 @@ from hypothesis import example, given
 from hypothesis import strategies as st
 
 from companion.guidance.current import MAX_CRAB_SIN, CurrentObserver, crab_heading, water_speed_mps
-from companion.guidance.geo import LocalFrame, wrap_pi
+from companion.guidance.geo import LocalFrame, distance_to_segment_m, wrap_pi
 from companion.guidance.sidestep import sidestep_point
 from companion.guidance.stem import stem_route
 from companion.guidance.waypoints import UTurnLatch, drift_lead_m, pivot_speed_mps, u_turn_sign
@@ -389,6 +390,27 @@ def test_hold_below_the_creep_is_reached_from_downstream_bow_into_the_current() 
     assert not stem.holding
     target = upstream.step(_nav(frame, *below, 0.0, -0.3), 0.1)  # there: the keeper, bow upstream
     assert stem.holding and abs(wrap_pi(target.course_rad - math.radians(270.0))) < math.radians(45.0)
+
+
+@pytest.mark.parametrize(("north_m", "east_m"), [(-7.5, -13.0), (-10.0, -12.0), (-4.0, -14.5), (-13.0, -5.0)])
+def test_hold_below_the_creep_routes_its_legs_clear_of_the_sampling_circle(north_m: float,
+                                                                           east_m: float) -> None:
+    """Every leg of a hold below the idle creep, from where the boat is, passes at least 1 m
+    outside the sampler's 2.5 m circle round a 2 m circle item: a boat cutting inside a leg that
+    grazed it started the pump there, and the loop onto the hold counted in Fig. 13 (the
+    water-sampling script's second point, 16 m, about one flight in ten)."""
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    toward = math.radians(80.0)  # 0.5 m/s, the flood's current toward the east, turned 10 deg north
+    current = (0.5 * math.cos(toward), 0.5 * math.sin(toward))
+    task = CircleTask(_creep_params(0.4), point, 2.0, water_current=lambda: current)
+    heading = math.atan2(-east_m, -north_m)  # running at the point at 2.5 m/s, from the first one
+    task.step(_nav(frame, north_m, east_m, 2.5 * math.cos(heading), 2.5 * math.sin(heading)), 0.1)
+    stem = task.stem
+    assert stem is not None and stem.below_creep
+    ends = [(north_m, east_m), *stem.route]
+    clearance = [distance_to_segment_m((0.0, 0.0), a, b) for a, b in itertools.pairwise(ends)]
+    assert min(clearance) >= 3.5, f"legs {stem.route} pass {min(clearance):.2f} m from the point"
 
 
 def test_hold_below_the_creep_that_the_boat_runs_up_the_current_from_is_given_up_and_remembered() -> None:
