@@ -58,7 +58,7 @@ class FilterpyUKF(UKF):
 
     def predict(self, throttle: float, delta_rad: float, dt_s: float) -> None:
         f = self.filter
-        f.x, f.P, f.Q = self.x.copy(), self.P.copy(), self.q_step(dt_s)
+        f.x, f.P, f.Q = self.x.copy(), self.P.copy(), self.process_noise(dt_s, throttle, delta_rad)
         f.predict(dt_s, throttle=throttle, delta_rad=delta_rad)
         self.x, self.P = np.array(f.x), np.array(f.P)
 

@@ -40,11 +40,15 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from companion.models.base import FloatArray, LinearInParamsModel
 from companion.models.qlpv import QLPVModel
+
+if TYPE_CHECKING:
+    from companion.models.current_ukf import QLPVFastCurrentUKF
 
 CHAPTER_Q_DIAG: tuple[float, ...] = tuple(1e-2 * np.array([0.0, 0.0, 0.0, 16.0, 2.0, 1.0]))
 CHAPTER_R_DIAG: tuple[float, ...] = tuple(1e-3 * np.array([16.0, 2.0, 1.0]))
@@ -82,6 +86,13 @@ class UKFSettings:
     """Random-walk intensity of each current component ((m/s)^2/s, read like Q)."""
     p0_current: float = DEFAULT_P0_CURRENT
     """Initial variance of each current component ((m/s)^2)."""
+    q_nu_transient_s: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """Process noise on the nu rows that grows with the model's own predicted derivative
+    a = A(nu) nu + B u at the mean: each step adds ``q_nu_transient_s[k] * a_k^2`` to Q's row k
+    (read like Q: an intensity, times dt for ``"rate"``).  The qLPV model's derivative error grows
+    with a (transients: starts, hard turns, sprints), and without this a persistent transient
+    error was taken for a current (:func:`companion.models.current_ukf.current_filter_settings`).
+    Zero (the default, Eq. 13): Q alone."""
 
     @property
     def n_states(self) -> int:
@@ -125,6 +136,10 @@ class UKF:
                              f"{s.n_states} (estimate_current={s.estimate_current})")
         if s.q_current < 0 or s.p0_current <= 0:
             raise ValueError("the current's Q must be >= 0 and its initial variance > 0")
+        if len(s.q_nu_transient_s) != 3 or not all(q >= 0 for q in s.q_nu_transient_s):
+            raise ValueError("the transient process noise needs 3 values >= 0 (one per nu row)")
+        self._q_transient = np.asarray(s.q_nu_transient_s, dtype=float)
+        self._transient = bool(self._q_transient.any())
         extra = self.n - 6  # states after delta_nu (the current), random walks
         self.Q = np.diag(np.concatenate([np.asarray(s.q_diag, dtype=float), np.full(extra, s.q_current)]))
         self.R = np.diag(np.asarray(s.r_diag, dtype=float))
@@ -152,6 +167,23 @@ class UKF:
             self._q_k = self.Q * dt_s
             self._q_dt = dt_s
         return self._q_k
+
+    def process_noise(self, dt_s: float, throttle: float, delta_rad: float) -> FloatArray:
+        """Q of this step: :meth:`q_step` plus, with ``q_nu_transient_s``, the nu rows' share
+        that grows with the model's predicted derivative at the mean (:class:`UKFSettings`)."""
+        q = self.q_step(dt_s)
+        if not self._transient:
+            return q
+        a = self._predicted_derivative(throttle, delta_rad)
+        q = q.copy()
+        scale = dt_s if self._q_rate else 1.0
+        for k in range(3):
+            q[k, k] += scale * self._q_transient[k] * a[k] * a[k]
+        return q
+
+    def _predicted_derivative(self, throttle: float, delta_rad: float) -> FloatArray:
+        """A(nu) nu + B u of the model at the mean nu (without delta_nu)."""
+        return np.asarray(self.derivative(self.x[None, :3], throttle, delta_rad))[0]
 
     def initialize(self, z: FloatArray) -> None:
         """UKF-I (Eq. 7): start from the first measurement, zero model error."""
@@ -188,7 +220,7 @@ class UKF:
         d = y[1:] - y[0]
         mean = y[0] + self._wi * d.sum(axis=0)
         dev = y - mean
-        p = (dev.T * self.Wc) @ dev + self.q_step(dt_s)
+        p = (dev.T * self.Wc) @ dev + self.process_noise(dt_s, throttle, delta_rad)
         self.x = mean
         self.P = 0.5 * (p + p.T)
 
@@ -228,6 +260,13 @@ class UKF:
         return self.x[:3]
 
 
+def compiled_derivative(ukf: QLPVFastUKF | QLPVFastCurrentUKF, throttle: float, delta_rad: float
+                        ) -> FloatArray:
+    """The qLPV model's derivative at ``ukf``'s mean nu, by the compiled kernel, into its buffer."""
+    ukf._derivative_kernel(ukf.x, float(throttle), float(delta_rad), ukf._theta, ukf._c_thrust, ukf._a)
+    return ukf._a
+
+
 class QLPVFastUKF(UKF):
     """The same filter for a :class:`~companion.models.qlpv.QLPVModel`, one compiled step.
 
@@ -246,12 +285,20 @@ class QLPVFastUKF(UKF):
         self._c_thrust = float(model.thrust_speed_coeff)
         self._wc0 = float(self.Wc[0])
         self._z = np.empty(3)
+        self._a = np.empty(3)
+        from companion.models.qlpv_kernel import qlpv_derivative
+
+        self._derivative_kernel = qlpv_derivative
+
+    def _predicted_derivative(self, throttle: float, delta_rad: float) -> FloatArray:
+        return compiled_derivative(self, throttle, delta_rad)
 
     def step(self, z: FloatArray, throttle: float, delta_rad: float, dt_s: float, psi_rad: float = 0.0
              ) -> FloatArray:
         self._z[:] = z
+        q = self.process_noise(dt_s, throttle, delta_rad)
         self.nis, jit = self._kernel(self.x, self.P, self._z, float(throttle), float(delta_rad),
-                                     float(dt_s), self._theta, self._c_thrust, self.q_step(dt_s), self.R,
+                                     float(dt_s), self._theta, self._c_thrust, q, self.R,
                                      self._wi, self._wc0, self._c)
         self.jitter_count += jit
         return self.x[3:6]

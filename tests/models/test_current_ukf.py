@@ -4,6 +4,8 @@ and known answers (a constant current and a constant model error recovered)."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
@@ -71,9 +73,14 @@ def test_current_filter_equals_filterpy_every_step() -> None:
         np.testing.assert_allclose(ukf.P, ref.P, rtol=0, atol=1e-9)
 
 
-def test_compiled_current_step_equals_numpy_step() -> None:
+TRANSIENT = replace(SETTINGS, q_nu_transient_s=(0.5, 0.08, 0.72))
+"""The same with the nu rows' process noise growing with the model's predicted derivative."""
+
+
+@pytest.mark.parametrize("settings", [SETTINGS, TRANSIENT])
+def test_compiled_current_step_equals_numpy_step(settings: UKFSettings) -> None:
     model, thr, dl, z, psi, _ = _boat_in_current(1000, (-0.5, 0.2))
-    slow, fast = CurrentUKF(model.derivative, SETTINGS), make_ukf(model, SETTINGS)
+    slow, fast = CurrentUKF(model.derivative, settings), make_ukf(model, settings)
     assert type(fast) is not CurrentUKF and isinstance(fast, CurrentUKF)
     slow.initialize(z[0])
     for k in range(1, 1000):
@@ -84,10 +91,10 @@ def test_compiled_current_step_equals_numpy_step() -> None:
         np.testing.assert_allclose(fast.P, slow.P, rtol=0, atol=1e-9)
 
 
-@pytest.mark.parametrize("estimate_current", [False, True])
-def test_filterpy_backend_gives_the_native_numbers(estimate_current: bool) -> None:
+@pytest.mark.parametrize("settings", [UKFSettings(), SETTINGS, TRANSIENT,
+                                      UKFSettings(q_nu_transient_s=(0.5, 0.08, 0.72))])
+def test_filterpy_backend_gives_the_native_numbers(settings: UKFSettings) -> None:
     model, thr, dl, z, psi, _ = _boat_in_current(800, (0.4, 0.4))
-    settings = SETTINGS if estimate_current else UKFSettings()
     native, ref = make_ukf(model, settings), make_ukf(model, settings, backend="filterpy")
     for f in (native, ref):
         f.initialize(z[0])
@@ -98,6 +105,22 @@ def test_filterpy_backend_gives_the_native_numbers(estimate_current: bool) -> No
         np.testing.assert_allclose(ref.x, native.x, rtol=0, atol=1e-9)
         np.testing.assert_allclose(ref.P, native.P, rtol=0, atol=1e-9)
         assert ref.nis == pytest.approx(native.nis, rel=1e-6, abs=1e-9)
+
+
+def test_transient_process_noise_grows_with_the_models_predicted_derivative() -> None:
+    """Each nu row k gets q_nu_transient_s[k] a_k^2 dt more process noise, a the model's
+    derivative at the mean; nothing at rest without thrust, and no other row changes."""
+    model = reference_qlpv()
+    ukf = make_ukf(model, TRANSIENT)
+    assert np.array_equal(ukf.process_noise(DT, 0.0, 0.0), ukf.q_step(DT))  # at rest, no thrust
+    ukf.x[:3] = (1.0, -0.3, 0.6)
+    a = model.derivative(ukf.x[None, :3], 0.8, 0.5)[0]
+    added = ukf.process_noise(DT, 0.8, 0.5) - ukf.q_step(DT)
+    expected = np.array(TRANSIENT.q_nu_transient_s) * a**2 * DT
+    np.testing.assert_allclose(np.diag(added)[:3], expected, rtol=1e-12)
+    assert np.count_nonzero(added) == np.count_nonzero(np.diag(added)[:3]) == 3
+    with pytest.raises(ValueError, match="transient"):
+        make_ukf(model, replace(TRANSIENT, q_nu_transient_s=(0.5, -0.1, 0.7)))
 
 
 def test_unknown_backend_is_refused() -> None:
