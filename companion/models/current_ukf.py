@@ -89,7 +89,9 @@ def control_filter_settings(r_diag: tuple[float, ...] = TABLE2_R_DIAG) -> UKFSet
     ("A fast surge model error for the controller")."""
     prediction = current_filter_settings(r_diag)
     q = prediction.q_diag
-    return replace(prediction, q_diag=(*q[:3], CONTROL_SURGE_DELTA_NU_Q, *q[4:]))
+    # without the estimate's transient noise (TRANSIENT_Q_S): the control tuning was measured without it
+    return replace(prediction, q_diag=(*q[:3], CONTROL_SURGE_DELTA_NU_Q, *q[4:]),
+                   q_nu_transient_s=(0.0, 0.0, 0.0))
 
 
 def current_mahalanobis(current_ne: FloatArray, cov: FloatArray) -> float:
