@@ -192,6 +192,13 @@ class OrbitGains:
     field's direction is GPS noise."""
 
 
+REST_RUN_OUT_FRACTION = 0.25
+"""An orbit entered at rest this close to its centre (a fraction of the radius) starts by running
+out along the bow (:meth:`DriftOrbit.update`)."""
+REST_MPS = 0.3
+"""Below this speed through the water a boat entering an orbit is at rest."""
+
+
 class DriftOrbit:
     """Circle ``centre_ne`` at ``radius_m`` through a known current (module docstring)."""
 
@@ -207,13 +214,16 @@ class DriftOrbit:
         self._entering = True
         self._turned_rad = 0.0
         self._last_heading_rad: float | None = None
+        self._run_out_rad: float | None = None
+        """Entered at rest near the centre: the bow held on this heading until the field steers
+        (:data:`REST_RUN_OUT_FRACTION`)."""
 
     def water_speed_mps(self, current_ne_mps: tuple[float, float]) -> float:
         g = self.gains
         return max(g.water_speed_mps, math.hypot(*current_ne_mps) / MAX_CRAB_SIN + g.water_speed_margin_mps)
 
     def update(self, pos_ne: tuple[float, float], current_ne_mps: tuple[float, float],
-               dt_s: float, heading_rad: float) -> HoldOutput:
+               dt_s: float, heading_rad: float, at_rest: bool = False) -> HoldOutput:
         """One step; ``heading_rad`` is the boat's.  Entered inside the circle (LOITER starts at
         its point, GUIDED hands over on it), the boat turns at once the orbit's way, at the
         orbit's water speed: the heading command leads the bow by ``entry_lead_rad`` until the
@@ -228,12 +238,32 @@ class DriftOrbit:
         docs/tuning.md).  Joining the field with the bow turned past its heading would reverse the
         turn, and the yaw row's thrust at the nozzle stop (``circling``) runs the boat out straight
         while the nozzle crosses (LOITER entered while GUIDED's orbit turns the boat;
-        docs/tuning.md)."""
+        docs/tuning.md).  Entered ``at_rest`` (through the water) in slack water
+        (:data:`ENTRY_CURRENT_MPS`) within :data:`REST_RUN_OUT_FRACTION` of the radius of the
+        centre, the boat instead runs out along its bow at the orbit's water speed until it is
+        that far out, and the field takes over there (it then asks a turn of about 40 deg the
+        orbit's way): a turn from the centre the orbit's way meets the circle going round it the
+        other way, so the entry turn spun the boat at full nozzle and throttle for 5 s and the join
+        that followed ran it out 5.5-7.4 m (LOITER pressed at rest, calm or 0.1 m/s; 3.3-3.9 m
+        now).  Not in a stronger current, where the entry turn toward upstream did better (0.2
+        m/s: 3.2 m, run out 4.5 m; docs/tuning.md)."""
         g, lam, big_r = self.gains, self.lam, self.radius_m
         d, phi = distance_bearing(pos_ne[0] - self.centre_ne[0], pos_ne[1] - self.centre_ne[1])
         e_r = d - big_r
         if self._last_heading_rad is None and d >= big_r:
             self._entering = False  # entered from outside: the field brings the boat in
+        if self._last_heading_rad is None and at_rest and d < REST_RUN_OUT_FRACTION * big_r \
+                and math.hypot(*current_ne_mps) < ENTRY_CURRENT_MPS:
+            self._run_out_rad = heading_rad
+        if self._run_out_rad is not None:
+            self._last_heading_rad = heading_rad
+            if d < REST_RUN_OUT_FRACTION * big_r:
+                u_w = self.water_speed_mps(current_ne_mps)
+                psi = self._run_out_rad
+                surge = u_w + current_ne_mps[0] * math.cos(psi) + current_ne_mps[1] * math.sin(psi)
+                return HoldOutput(psi, surge, 0.0, d, e_r)
+            self._run_out_rad = None
+            self._entering = False
         if self._entering and self._last_heading_rad is not None:
             self._turned_rad += turn_to_go_rad(lam, self._last_heading_rad, heading_rad)
         self._last_heading_rad = heading_rad

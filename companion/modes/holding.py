@@ -27,6 +27,7 @@ from companion.guidance.bow_turn import KeeperTurn, downstream_speed_mps
 from companion.guidance.geo import LocalFrame, along_across_m, wrap_2pi
 from companion.guidance.hold_params import HOLD_CURRENT, current_station_gains, orbit_gains
 from companion.guidance.holding import (
+    REST_MPS,
     CurrentStationKeeper,
     DriftOrbit,
     HoldStrategy,
@@ -112,8 +113,10 @@ class OrbitTask:
         self.cross_track_m = 0.0
 
     def step(self, nav: NavState, dt_s: float) -> ControlTarget:
-        out = self.orbit.update(self.frame.to_ne(nav.lat_deg, nav.lon_deg), self.current(), dt_s,
-                                nav.heading_rad)
+        current = self.current()
+        at_rest = math.hypot(nav.vel_north_mps - current[0], nav.vel_east_mps - current[1]) < REST_MPS
+        out = self.orbit.update(self.frame.to_ne(nav.lat_deg, nav.lon_deg), current, dt_s,
+                                nav.heading_rad, at_rest)
         self.distance_m, self.radial_error_m = out.distance_m, out.radial_error_m
         return ControlTarget(out.heading_rad, out.surge_speed_mps, out.turn_rate_radps, is_heading=True,
                              circling=True)
