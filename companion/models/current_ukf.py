@@ -31,7 +31,7 @@ import numpy as np
 
 from companion.models.base import FloatArray
 from companion.models.qlpv import QLPVModel
-from companion.models.ukf import CURRENT_GATE_CHI2, UKF, Derivative, UKFSettings, compiled_derivative
+from companion.models.ukf import CURRENT_GATE_CHI2, UKF, CompiledDerivative, Derivative, UKFSettings
 
 TABLE2_R_DIAG: tuple[float, float, float] = (0.1**2, 0.1**2, math.radians(0.05) ** 2)
 """The GPS-INS of the chapter's Table 2 as measurement noise of z = [u, v, r]: 0.1 m/s per
@@ -165,13 +165,10 @@ class QLPVFastCurrentUKF(CurrentUKF):
         self._c_thrust = float(model.thrust_speed_coeff)
         self._wc0 = float(self.Wc[0])
         self._z = np.empty(3)
-        self._a = np.empty(3)
-        from companion.models.qlpv_kernel import qlpv_derivative
-
-        self._derivative_kernel = qlpv_derivative
+        self._at_mean = CompiledDerivative(model)
 
     def _predicted_derivative(self, throttle: float, delta_rad: float) -> FloatArray:
-        return compiled_derivative(self, throttle, delta_rad)
+        return self._at_mean(self.x, throttle, delta_rad)
 
     def step(self, z: FloatArray, throttle: float, delta_rad: float, dt_s: float, psi_rad: float = 0.0
              ) -> FloatArray:

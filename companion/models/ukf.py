@@ -40,15 +40,11 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from companion.models.base import FloatArray, LinearInParamsModel
 from companion.models.qlpv import QLPVModel
-
-if TYPE_CHECKING:
-    from companion.models.current_ukf import QLPVFastCurrentUKF
 
 CHAPTER_Q_DIAG: tuple[float, ...] = tuple(1e-2 * np.array([0.0, 0.0, 0.0, 16.0, 2.0, 1.0]))
 CHAPTER_R_DIAG: tuple[float, ...] = tuple(1e-3 * np.array([16.0, 2.0, 1.0]))
@@ -260,11 +256,21 @@ class UKF:
         return self.x[:3]
 
 
-def compiled_derivative(ukf: QLPVFastUKF | QLPVFastCurrentUKF, throttle: float, delta_rad: float
-                        ) -> FloatArray:
-    """The qLPV model's derivative at ``ukf``'s mean nu, by the compiled kernel, into its buffer."""
-    ukf._derivative_kernel(ukf.x, float(throttle), float(delta_rad), ukf._theta, ukf._c_thrust, ukf._a)
-    return ukf._a
+class CompiledDerivative:
+    """A(nu) nu + B u of a qLPV model at one state, by the compiled kernel into a kept buffer (the
+    fast filters' :meth:`UKF._predicted_derivative`, every step)."""
+
+    def __init__(self, model: QLPVModel) -> None:
+        from companion.models.qlpv_kernel import qlpv_derivative
+
+        self._kernel = qlpv_derivative
+        self._theta = np.ascontiguousarray(model.theta)
+        self._c_thrust = float(model.thrust_speed_coeff)
+        self._out = np.empty(3)
+
+    def __call__(self, x: FloatArray, throttle: float, delta_rad: float) -> FloatArray:
+        self._kernel(x, float(throttle), float(delta_rad), self._theta, self._c_thrust, self._out)
+        return self._out
 
 
 class QLPVFastUKF(UKF):
@@ -285,13 +291,10 @@ class QLPVFastUKF(UKF):
         self._c_thrust = float(model.thrust_speed_coeff)
         self._wc0 = float(self.Wc[0])
         self._z = np.empty(3)
-        self._a = np.empty(3)
-        from companion.models.qlpv_kernel import qlpv_derivative
-
-        self._derivative_kernel = qlpv_derivative
+        self._at_mean = CompiledDerivative(model)
 
     def _predicted_derivative(self, throttle: float, delta_rad: float) -> FloatArray:
-        return compiled_derivative(self, throttle, delta_rad)
+        return self._at_mean(self.x, throttle, delta_rad)
 
     def step(self, z: FloatArray, throttle: float, delta_rad: float, dt_s: float, psi_rad: float = 0.0
              ) -> FloatArray:

@@ -16,6 +16,7 @@ import pytest
 from benchmarks.mavlink_gcs import free_port
 from benchmarks.nav_gcs import GroundStation
 from companion.guidance.geo import LocalFrame
+from companion.messages import ModeNumber
 from tests.mavlink.sitl_process import sitl, write_config
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(240)]
@@ -109,7 +110,7 @@ def test_ground_station_sees_the_water_from_the_start_of_a_go_to(tmp_path: Path,
             gcs.connect()
             assert gcs.home is not None
             gcs.arm()
-            gcs.set_mode(15)  # GUIDED
+            gcs.set_mode(ModeNumber.GUIDED)
             gcs.goto(*LocalFrame(*gcs.home).to_lat_lon(30.0, 30.0))
             gcs.sleep_vehicle(30.0)
     finally:
