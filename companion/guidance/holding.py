@@ -252,17 +252,18 @@ class DriftOrbit:
         e_r = d - big_r
         if self._last_heading_rad is None and d >= big_r:
             self._entering = False  # entered from outside: the field brings the boat in
-        if self._last_heading_rad is None and at_rest and d < REST_RUN_OUT_FRACTION * big_r \
+        near_centre = d < REST_RUN_OUT_FRACTION * big_r
+        if self._last_heading_rad is None and at_rest and near_centre \
                 and math.hypot(*current_ne_mps) < ENTRY_CURRENT_MPS:
             self._run_out_rad = heading_rad
         if self._run_out_rad is not None:
-            self._last_heading_rad = heading_rad
-            if d < REST_RUN_OUT_FRACTION * big_r:
+            if near_centre:
+                self._last_heading_rad = heading_rad
                 u_w = self.water_speed_mps(current_ne_mps)
                 psi = self._run_out_rad
                 surge = u_w + current_ne_mps[0] * math.cos(psi) + current_ne_mps[1] * math.sin(psi)
                 return HoldOutput(psi, surge, 0.0, d, e_r)
-            self._run_out_rad = None
+            self._run_out_rad = None  # out far enough: the field steers from here
             self._entering = False
         if self._entering and self._last_heading_rad is not None:
             self._turned_rad += turn_to_go_rad(lam, self._last_heading_rad, heading_rad)
