@@ -44,6 +44,10 @@ class Saturation:
 NO_SATURATION = Saturation()
 
 
+IDLE_THROTTLE = 0.02
+"""At this throttle or less the jet idles (it still pushes the boat at its idle creep)."""
+
+
 class ActuatorMapper:
     """Clip and slew-limit (nozzle_rad, throttle); remembers the last saturation flags."""
 
@@ -62,6 +66,10 @@ class ActuatorMapper:
     def throttle(self) -> float:
         """The last throttle sent."""
         return self._throttle.value
+
+    def idling(self) -> bool:
+        """The jet idles: the last throttle sent is at most :data:`IDLE_THROTTLE`."""
+        return self._throttle.value <= IDLE_THROTTLE
 
     def reset(self, nozzle_rad: float = 0.0, throttle: float = 0.0) -> None:
         lim = self.limits

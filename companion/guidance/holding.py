@@ -16,6 +16,8 @@ north/east m/s, from the estimator):
   The heading is the direction of ``w``, kept within ``max_off_upstream_rad`` of upstream (a
   jet that turns broadside to a strong current is swept away: it backs down stern-first to the
   point, ferry-gliding sideways), and the surge over ground the projection of ``v_g`` on it.
+  While the jet idles and ``w`` is slower than the idling boat, the bow is set off upstream
+  instead (:mod:`companion.guidance.ferry`).
 
 * weaker: the boat cannot stand still, so it circles the point (:class:`DriftOrbit`) at a
   constant speed through the water ``U_w`` on a ground circle of radius ``R``.  The desired
@@ -42,6 +44,7 @@ import math
 from dataclasses import dataclass
 
 from companion.angles import upstream_rad
+from companion.guidance.ferry import IdleDrift, ferry_heading
 from companion.guidance.geo import along_across_m, distance_bearing, turn_to_go_rad, wrap_2pi, wrap_pi
 
 MAX_CRAB_SIN = 0.8
@@ -114,7 +117,10 @@ class CurrentStationKeeper:
         self.heading_rad = wrap_2pi(heading_rad)
 
     def update(self, pos_ne: tuple[float, float], current_ne_mps: tuple[float, float],
-               dt_s: float) -> HoldOutput:
+               dt_s: float, idle: IdleDrift | None = None) -> HoldOutput:
+        """One step: the heading and surge over ground for ``pos_ne``; ``idle`` (the jet idles):
+        the ferry glide's heading when the keeper wants less speed than the idling boat makes
+        (:func:`~companion.guidance.ferry.ferry_heading`)."""
         g = self.gains
         en, ee = pos_ne[0] - self.target_ne[0], pos_ne[1] - self.target_ne[1]
         vn, ve = -g.kp_per_s * en, -g.kp_per_s * ee
@@ -140,6 +146,9 @@ class CurrentStationKeeper:
                     # the sign of a near-180 deg angle picks changes with every wave; keep the bow's
                     off = math.copysign(abs(off), wrap_pi(self.heading_rad - upstream))
                 heading = upstream + max(-g.max_off_upstream_rad, min(g.max_off_upstream_rad, off))
+                ferry = None if idle is None or clamped else ferry_heading(
+                    upstream, (wn, we), self.heading_rad - upstream, idle, g.kp_per_s)
+                heading = heading if ferry is None else ferry
             self.heading_rad = wrap_2pi(heading)
         surge = vn * math.cos(self.heading_rad) + ve * math.sin(self.heading_rad)
         cap = clamped_surge_cap_mps(self.heading_rad, (vn, ve), current_ne_mps) if clamped else math.inf

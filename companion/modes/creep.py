@@ -19,11 +19,10 @@ from companion.modes.evidence import LeakyEvidence
 from companion.modes.holding import CurrentStationTask, OrbitTask
 from companion.modes.host import ModeHost
 
-IDLE_THROTTLE = 0.02
 CREEP_MPS = 0.2
 ON_HEADING_RAD = math.radians(45.0)
 ORBIT_AFTER_S = 3.0
-"""The creep signature (:class:`CreepWatch`): the jet idles (throttle at most IDLE_THROTTLE), the
+"""The creep signature (:class:`CreepWatch`): the jet idles (throttle at most ``IDLE_THROTTLE``), the
 bow is within ON_HEADING_RAD of the station heading and the boat still makes more than CREEP_MPS
 of headway, for ORBIT_AFTER_S net (leaky count)."""
 
@@ -46,8 +45,8 @@ def speed_down_the_current_mps(nav: NavState, task: CurrentStationTask) -> float
 
 
 def idling(host: ModeHost) -> bool:
-    """The jet idles: throttle at most :data:`IDLE_THROTTLE`."""
-    return host.control.mapper.throttle <= IDLE_THROTTLE
+    """The jet idles (:meth:`~companion.control.actuator.ActuatorMapper.idling`)."""
+    return host.control.mapper.idling()
 
 
 class CreepWatch:

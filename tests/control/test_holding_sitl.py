@@ -146,6 +146,18 @@ async def test_wind_from_ahead_holds_the_boat_on_its_point_in_a_current_weaker_t
         assert max(dists) < 1.0
 
 
+async def test_loiter_in_a_flood_with_strong_wind_against_it_ferries_on_its_point() -> None:
+    """1.2 m/s toward N with 6 m/s of wind from N and Hs 0.3 m: the wind on the stern of a boat bow
+    into the current pushes the idling jet through the water at 1.0-1.5 m/s, faster than the
+    current.  Bow straight upstream it crept 2 m up past its point before the bow came off the line
+    (2.7 m off within 60 s); the ferry glide sets the bow up to 20 deg off upstream and weaves
+    across the current on the point (measured 1.3 m, the last 30 s 0.8 m)."""
+    async with SitlHarness(seed=4, current="1.2,0", wind="6,0", waves="0.3", full_stack=True) as h:
+        await _guided_to_the_point_and_hold(h)
+        dists = await _loiter_from_here(h, 120, every_step=CurrentStationTask)
+        assert max(dists) < 2.0 and max(dists[60:]) < 1.5
+
+
 async def test_loiter_orbit_in_wind_against_a_weak_current_stays_near_its_point() -> None:
     """0.3 m/s toward E with 6 m/s of wind and Hs 0.3 m waves against it (usv bench nav's third
     weather slot, tuning seed 3): the boat cannot stand on its point and orbits it; the wind

@@ -11,6 +11,7 @@ import math
 from collections.abc import Callable
 from dataclasses import replace
 
+from companion.control.actuator import IDLE_THROTTLE
 from companion.guidance.geo import LocalFrame, distance_bearing
 from companion.guidance.holding import HoldStrategy
 from companion.messages import CurrentEstimate, NavState
@@ -91,9 +92,13 @@ def test_a_leg_within_60_degrees_of_upstream_is_flown_as_it_is() -> None:
 class _Mapper:
     throttle = 0.0
 
+    def idling(self) -> bool:
+        return self.throttle <= IDLE_THROTTLE
+
 
 class _Control:
-    mapper = _Mapper()
+    def __init__(self) -> None:
+        self.mapper = _Mapper()
 
 
 class _Host:
@@ -122,10 +127,11 @@ def test_a_keeper_idling_far_off_its_point_without_closing_is_given_up_for_the_o
 
 class _TrialHost:
     """What the hold choice reads of the mode host: parameters, the current estimate, the vehicle's
-    memory of failed station keeping and the clock."""
+    memory of failed station keeping, the clock and the jet's throttle."""
 
     def __init__(self, current_ne_mps: tuple[float, float], confidence: float = 0.95) -> None:
         self.params = ParamStore(all_param_defs())
+        self.control = _Control()
         self.water_current: CurrentEstimate | None = CurrentEstimate.from_components(
             0.0, *current_ne_mps, 0.001, 0.001, confidence)
         self.station_trials = StationTrials()
@@ -185,12 +191,6 @@ def test_a_current_stronger_than_the_creep_is_orbited_where_station_keeping_fail
     assert isinstance(hold_task(host, HOME, straight), OrbitTask)  # type: ignore[arg-type]
 
 
-class _KeeperHost(_TrialHost):
-    """The hold choice's host with the idling jet's throttle (what :func:`creeping_up` reads)."""
-
-    control = _Control()
-
-
 def _idling_given_up_after_s(current_ne_mps: tuple[float, float], try_station: bool, start_north_m: float,
                              bow_rad: float, vel_north_mps: Callable[[float], float], seconds: float,
                              rule: Callable[..., bool], along_bow: bool) -> float | None:
@@ -199,7 +199,7 @@ def _idling_given_up_after_s(current_ne_mps: tuple[float, float], try_station: b
     north at ``vel_north_mps(t)`` (``along_bow``: that is its surge; else it idles sideways, surge 0):
     when ``rule`` (:func:`creeping_up` or :func:`trial_creeping`)
     gives the hold up (s), ``None`` if not within ``seconds``."""
-    host = _KeeperHost(current_ne_mps)
+    host = _TrialHost(current_ne_mps)
     host.control.mapper.throttle = 0.0
     task = hold_task(host, HOME, _nav(100.0, start_north_m, 0.0, math.pi, 1.0), try_station)  # type: ignore[arg-type]
     assert isinstance(task, CurrentStationTask) and task.trial is try_station
@@ -263,7 +263,7 @@ def _keeper_from_upstream_given_up_after_s(vel_ne_mps: Callable[[float, float], 
     70 deg off upstream to ferry it across) with 0.8 m/s of headway along the bow, moving over
     ground at ``vel_ne_mps(t, bow_rad)``: when :func:`orbit_if_creeping` gives the keeper up for the
     orbit (s), ``None`` if not within ``seconds``."""
-    host = _KeeperHost((-1.2, 0.0))
+    host = _TrialHost((-1.2, 0.0))
     host.control.mapper.throttle = 0.0
     north_m, east_m = start_north_m, 8.0
     task = hold_task(host, HOME, _nav(100.0, north_m, east_m, 0.0, 0.5))  # type: ignore[arg-type]

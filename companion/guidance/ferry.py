@@ -1,0 +1,67 @@
+"""Ferry glide: keeping station bow into a current the idling jet outruns (issue 14).
+
+A water jet idles with thrust, so the slowest the boat goes through the water is its idle creep,
+and wind from astern adds to it (1.1-1.5 m/s with 6 m/s of wind against a 1.2 m/s current, in
+the simulator).  Bow straight into a current weaker than that, the idling boat creeps up the
+current past its point and nothing slows it: the station keeper asked for less speed than the jet
+makes, the jet idled, and the boat crept 2 m upstream before the bow came off the line
+(``docs/tuning.md``).
+
+So while the jet idles and the desired water velocity ``w`` (the station keeper's, see
+:class:`~companion.guidance.holding.CurrentStationKeeper`) is slower than the idling boat's speed
+through the water ``U`` by more than :data:`FERRY_MARGIN_MPS`, the bow is set off upstream by::
+
+    off = min(acos((w_up + margin) / U), FERRY_MAX_RAD)
+
+so that the upstream component of the idling boat's water velocity, ``U cos(off)``, is about what
+the keeper wants, as a ferry crossing a river sets its bow.  The boat then crosses the current at
+``U sin(off)``; the side follows ``w``'s component across the current, led by the boat's ground
+velocity over :data:`FERRY_LEAD_S` (at idle the bow needs 4-8 s to swing from one side to the
+other: without the lead it weaved 2 m either side of its point), and stays the bow's side while
+that is within :data:`FERRY_SIDE_MPS` of nothing.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from companion.guidance.geo import wrap_pi
+
+FERRY_MAX_RAD = math.radians(20.0)
+"""Largest ferry angle off upstream: the idle bow swings slowly, and the cross-current speed
+``U sin(off)`` sets how far the boat weaves (30 deg: 2.1-3.0 m off; 20 deg: about 1 m)."""
+FERRY_MARGIN_MPS = 0.1
+"""The ferry angle starts once the desired water speed is this far below the idle speed (a
+margin for the idle speed's waves; without it the bow left the current in holds the jet already
+held within 0.3-0.5 m)."""
+FERRY_LEAD_S = 4.0
+FERRY_SIDE_MPS = 0.05
+
+
+@dataclass(frozen=True, slots=True)
+class IdleDrift:
+    """How the boat moves while its jet idles: the input of the ferry glide."""
+
+    idle_water_mps: float
+    """The idling boat's speed through the water (m/s)."""
+    vel_ne_mps: tuple[float, float]
+    """Its velocity over ground (north, east m/s)."""
+
+
+def ferry_heading(upstream_rad: float, w_ne_mps: tuple[float, float], bow_off_rad: float,
+                  drift: IdleDrift, kp_per_s: float) -> float | None:
+    """The ferry-glide heading (rad) for the desired water velocity ``w`` (north, east m/s) of a
+    keeper whose position gain is ``kp_per_s`` and whose bow is ``bow_off_rad`` off upstream, or
+    ``None`` where the keeper's own heading serves (``w`` at least the idle speed less the margin,
+    or pointing downstream of across)."""
+    up_n, up_e = math.cos(upstream_rad), math.sin(upstream_rad)
+    w_up = w_ne_mps[0] * up_n + w_ne_mps[1] * up_e
+    if math.hypot(*w_ne_mps) + FERRY_MARGIN_MPS >= drift.idle_water_mps or w_up <= 0.0:
+        return None
+    off = min(math.acos((w_up + FERRY_MARGIN_MPS) / drift.idle_water_mps), FERRY_MAX_RAD)
+    lead_n = w_ne_mps[0] - kp_per_s * FERRY_LEAD_S * drift.vel_ne_mps[0]
+    lead_e = w_ne_mps[1] - kp_per_s * FERRY_LEAD_S * drift.vel_ne_mps[1]
+    across = up_n * lead_e - up_e * lead_n  # positive: clockwise of upstream
+    side = math.copysign(1.0, across if abs(across) > FERRY_SIDE_MPS else wrap_pi(bow_off_rad))
+    return upstream_rad + side * off

@@ -1,0 +1,53 @@
+"""The ferry glide of a station keeper whose idling jet outruns the current (issue 14,
+:mod:`companion.guidance.ferry`)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from companion.guidance.ferry import FERRY_MARGIN_MPS, FERRY_MAX_RAD, IdleDrift, ferry_heading
+
+UPSTREAM = math.radians(270.0)
+"""A current toward east: upstream is west."""
+KP = 0.25
+
+
+def _off_deg(heading: float | None) -> float:
+    assert heading is not None
+    return math.degrees(math.remainder(heading - UPSTREAM, 2 * math.pi))
+
+
+def test_a_keeper_that_wants_more_than_the_idle_speed_keeps_its_own_heading() -> None:
+    w_west = (0.0, -1.0)
+    assert ferry_heading(UPSTREAM, w_west, 0.0, IdleDrift(1.05, (0.0, 0.0)), KP) is None  # within the margin
+    assert ferry_heading(UPSTREAM, (0.0, 0.5), 0.0, IdleDrift(1.2, (0.0, 0.0)), KP) is None  # downstream
+
+
+@pytest.mark.parametrize(("w_up_mps", "idle_mps"), [(1.0, 1.2), (0.95, 1.15), (0.6, 1.2)])
+def test_the_bow_is_set_off_upstream_so_the_idling_boat_makes_good_what_the_keeper_wants(
+        w_up_mps: float, idle_mps: float) -> None:
+    """Upstream component of the idling boat's water velocity: the keeper's wish plus the margin,
+    up to the largest ferry angle."""
+    drift = IdleDrift(idle_mps, (0.0, 0.0))
+    heading = ferry_heading(UPSTREAM, (0.0, -w_up_mps), math.radians(5.0), drift, KP)
+    off = math.radians(abs(_off_deg(heading)))
+    expected = min(math.acos((w_up_mps + FERRY_MARGIN_MPS) / idle_mps), FERRY_MAX_RAD)
+    assert off == pytest.approx(expected)
+    assert 0.0 < off <= FERRY_MAX_RAD
+
+
+def test_the_side_follows_the_keeper_across_the_current_and_else_stays_the_bows() -> None:
+    """North of the line through the point the keeper wants to go south; near it (within the
+    side's dead band) the bow stays on its side; a boat already crossing fast toward the line
+    turns to the other side before it gets there (the lead)."""
+    still = IdleDrift(1.2, (0.0, 0.0))
+    # heading 270 - off points south-west (bow counter-clockwise of upstream): off < 0
+    assert _off_deg(ferry_heading(UPSTREAM, (-0.3, -1.0), 0.0, still, KP)) < 0.0
+    assert _off_deg(ferry_heading(UPSTREAM, (0.3, -1.0), 0.0, still, KP)) > 0.0
+    for bow_deg in (-10.0, 10.0):
+        out = ferry_heading(UPSTREAM, (0.02, -1.0), math.radians(bow_deg), still, KP)
+        assert math.copysign(1.0, _off_deg(out)) == math.copysign(1.0, bow_deg)
+    crossing_south = IdleDrift(1.2, (-0.4, 0.0))  # 1 m north of the line, coming south at 0.4 m/s
+    assert _off_deg(ferry_heading(UPSTREAM, (-KP * 1.0, -1.0), 0.0, crossing_south, KP)) > 0.0
