@@ -37,6 +37,8 @@ margin for the idle speed's waves; without it the bow left the current in holds 
 held within 0.3-0.5 m)."""
 FERRY_LEAD_S = 4.0
 FERRY_SIDE_MPS = 0.05
+IDLE_WATER_TAU_S = 2.0
+"""Time constant (s) of :class:`IdleWater`."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -47,6 +49,24 @@ class IdleDrift:
     """The idling boat's speed through the water (m/s)."""
     vel_ne_mps: tuple[float, float]
     """Its velocity over ground (north, east m/s)."""
+
+
+class IdleWater:
+    """The idling boat's speed through the water, low-passed over ``tau_s`` while the jet idles
+    (wind from astern adds to the creep), starting from ``creep_mps`` (``USV_HOLD_CREEP``)."""
+
+    def __init__(self, creep_mps: float, tau_s: float = IDLE_WATER_TAU_S) -> None:
+        self.speed_mps = creep_mps
+        self.tau_s = tau_s
+
+    def update(self, idling: bool, vel_ne_mps: tuple[float, float], current_ne_mps: tuple[float, float],
+               dt_s: float) -> IdleDrift | None:
+        """The ferry glide's input while the jet idles (``None`` while it pushes)."""
+        if not idling:
+            return None
+        water_mps = math.hypot(vel_ne_mps[0] - current_ne_mps[0], vel_ne_mps[1] - current_ne_mps[1])
+        self.speed_mps += (water_mps - self.speed_mps) * min(1.0, dt_s / self.tau_s)
+        return IdleDrift(self.speed_mps, vel_ne_mps)
 
 
 def ferry_heading(upstream_rad: float, w_ne_mps: tuple[float, float], bow_off_rad: float,

@@ -24,7 +24,7 @@ from dataclasses import replace
 from companion.angles import current_along_mps, upstream_rad
 from companion.control.target import ControlTarget
 from companion.guidance.bow_turn import KeeperTurn, downstream_speed_mps
-from companion.guidance.ferry import IdleDrift
+from companion.guidance.ferry import IdleWater
 from companion.guidance.geo import LocalFrame, along_across_m, wrap_2pi
 from companion.guidance.hold_params import HOLD_CURRENT, current_station_gains, orbit_gains
 from companion.guidance.holding import (
@@ -84,20 +84,14 @@ class CurrentStationTask:
         """When the task started (vehicle clock)."""
         self.idling = idling
         """Whether the jet idles now (:meth:`~companion.control.actuator.ActuatorMapper.idling`)."""
-        self.idle_water_mps = params.get("USV_HOLD_CREEP")
-        """The idling boat's speed through the water (m/s; wind from astern adds to the creep),
-        low-passed over :data:`IDLE_WATER_TAU_S` while the jet idles: the keeper's ferry glide
+        self.idle_water = IdleWater(params.get("USV_HOLD_CREEP"))
+        """The idling boat's speed through the water: the keeper's ferry glide
         (:mod:`companion.guidance.ferry`)."""
 
     def step(self, nav: NavState, dt_s: float) -> ControlTarget:
         current = self.current()
         pos_ne = self.frame.to_ne(nav.lat_deg, nav.lon_deg)
-        vel_ne = (nav.vel_north_mps, nav.vel_east_mps)
-        idle = None
-        if self.idling():
-            water_mps = math.hypot(vel_ne[0] - current[0], vel_ne[1] - current[1])
-            self.idle_water_mps += (water_mps - self.idle_water_mps) * min(1.0, dt_s / IDLE_WATER_TAU_S)
-            idle = IdleDrift(self.idle_water_mps, vel_ne)
+        idle = self.idle_water.update(self.idling(), (nav.vel_north_mps, nav.vel_east_mps), current, dt_s)
         out = self.keeper.update(pos_ne, current, dt_s, idle)
         self.distance_m = out.distance_m
         self.downstream_m = along_across_m(pos_ne, (0.0, 0.0), current)[0]
@@ -107,10 +101,6 @@ class CurrentStationTask:
             current_along_mps(nav.heading_rad, current))
         return ControlTarget(heading, speed, is_heading=True, hold_station=not self.turn.powered,
                              current_along_mps=current_along_mps(out.heading_rad, current))
-
-
-IDLE_WATER_TAU_S = 2.0
-"""Time constant (s) of :attr:`CurrentStationTask.idle_water_mps`."""
 
 
 class OrbitTask:
