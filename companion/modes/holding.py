@@ -91,7 +91,8 @@ class CurrentStationTask:
     def step(self, nav: NavState, dt_s: float) -> ControlTarget:
         current = self.current()
         pos_ne = self.frame.to_ne(nav.lat_deg, nav.lon_deg)
-        idle = self.idle_water.update(self.idling(), (nav.vel_north_mps, nav.vel_east_mps), current, dt_s)
+        idle = None if self.trial else self.idle_water.update(
+            self.idling(), (nav.vel_north_mps, nav.vel_east_mps), current, dt_s)
         out = self.keeper.update(pos_ne, current, dt_s, idle)
         self.distance_m = out.distance_m
         self.downstream_m = along_across_m(pos_ne, (0.0, 0.0), current)[0]
