@@ -304,3 +304,29 @@ def test_a_keeper_the_current_carries_down_onto_its_point_is_not_creeping() -> N
     assert creeping is not None and creeping >= POINT_ORBIT_AFTER_S - 0.2
     ferrying = _keeper_from_upstream_given_up_after_s(bobbing, 3.0, 3.0 * POINT_ORBIT_AFTER_S)
     assert ferrying is not None and ferrying <= 1.5 * POINT_ORBIT_AFTER_S
+
+
+def _keeper_heading_deg(throttle: float, trial: bool) -> float:
+    """LOITER's keeper on its point in 1.2 m/s toward N, bow up the current (S), the boat making
+    1.5 m/s through the water (wind from astern) for 10 s with the jet at ``throttle``; a station
+    keeping trial when ``trial``: the heading it commands last (deg)."""
+    host = _TrialHost((1.2, 0.0))
+    host.control.mapper.throttle = throttle
+    water_mps = 1.5
+    nav = replace(_nav(100.0, 0.0, 0.0, math.pi, water_mps), vel_north_mps=1.2 - water_mps)
+    task = hold_task(host, HOME, nav)  # type: ignore[arg-type]
+    assert isinstance(task, CurrentStationTask)
+    task.trial = trial
+    for k in range(100):
+        target = task.step(replace(nav, t_s=100.0 + 0.1 * k), 0.1)
+    return math.degrees(target.course_rad) % 360.0
+
+
+def test_a_keeper_whose_idling_jet_outruns_the_current_sets_its_bow_off_upstream() -> None:
+    """The idling boat outruns the current by 0.3 m/s: the bow goes 20 deg off upstream (the ferry
+    glide's largest angle), so the boat no longer creeps up past its point; with the jet pushing
+    (the speed loop still has authority) or in a trial (a current weaker than the creep), it stays
+    dead upstream."""
+    assert abs(abs(_keeper_heading_deg(0.0, trial=False) - 180.0) - 20.0) < 0.5
+    assert abs(_keeper_heading_deg(0.3, trial=False) - 180.0) < 0.5
+    assert abs(_keeper_heading_deg(0.0, trial=True) - 180.0) < 0.5
