@@ -30,11 +30,12 @@ from companion.guidance.geo import wrap_pi
 
 FERRY_MAX_RAD = math.radians(20.0)
 """Largest ferry angle off upstream: the idle bow swings slowly, and the cross-current speed
-``U sin(off)`` sets how far the boat weaves (30 deg: 2.1-3.0 m off; 20 deg: about 1 m)."""
+``U sin(off)`` sets how far the boat weaves (in-process, 1.2 m/s against 6 m/s of wind: 30 deg
+2.95 m off, 20 deg 0.97 m; ``docs/tuning.md``)."""
 FERRY_MARGIN_MPS = 0.1
 """The ferry angle starts once the desired water speed is this far below the idle speed (a
-margin for the idle speed's waves; without it the bow left the current in holds the jet already
-held within 0.3-0.5 m)."""
+margin for the idle speed's waves; without it and the idle gate the bow left the current in holds
+the jet already held within 0.3-0.5 m)."""
 FERRY_LEAD_S = 4.0
 """The side is chosen on where the boat will be this long ahead (s) at its present ground velocity
 (in-process: 2 s held 1.28 m, 4 s 0.97 m; none 2.08 m)."""
