@@ -26,6 +26,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from companion.guidance.current import water_speed_mps
 from companion.guidance.geo import wrap_pi
 
 FERRY_MAX_RAD = math.radians(20.0)
@@ -69,7 +70,7 @@ class IdleWater:
         """The ferry glide's input while the jet idles (``None`` while it pushes)."""
         if not idling:
             return None
-        water_mps = math.hypot(vel_ne_mps[0] - current_ne_mps[0], vel_ne_mps[1] - current_ne_mps[1])
+        water_mps = water_speed_mps(*vel_ne_mps, current_ne_mps)
         self.speed_mps += (water_mps - self.speed_mps) * min(1.0, dt_s / self.tau_s)
         return IdleDrift(self.speed_mps, vel_ne_mps)
 

@@ -24,6 +24,7 @@ from dataclasses import replace
 from companion.angles import current_along_mps, upstream_rad
 from companion.control.target import ControlTarget
 from companion.guidance.bow_turn import KeeperTurn, downstream_speed_mps
+from companion.guidance.current import water_speed_mps
 from companion.guidance.ferry import IdleWater
 from companion.guidance.geo import LocalFrame, along_across_m, wrap_2pi
 from companion.guidance.hold_params import HOLD_CURRENT, current_station_gains, orbit_gains
@@ -122,7 +123,7 @@ class OrbitTask:
 
     def step(self, nav: NavState, dt_s: float) -> ControlTarget:
         current = self.current()
-        at_rest = math.hypot(nav.vel_north_mps - current[0], nav.vel_east_mps - current[1]) < REST_MPS
+        at_rest = water_speed_mps(nav.vel_north_mps, nav.vel_east_mps, current) < REST_MPS
         out = self.orbit.update(self.frame.to_ne(nav.lat_deg, nav.lon_deg), current, dt_s,
                                 nav.heading_rad, at_rest)
         self.distance_m, self.radial_error_m = out.distance_m, out.radial_error_m
