@@ -66,15 +66,26 @@ a cross-current reads as sway, whose coupling into yaw changes with every headin
 a 1.2 m/s current the heading, the crab and the course swung +-10-17 deg and the boat snaked
 0.8-0.9 m off its leg; on water-relative velocities it holds the line (``docs/tuning.md``).  With
 the chapter's filter (the default, delta_nu over the ground) the law stays on over-ground
-velocities, the pair the chapter flies.  The water-relative pair's filter has a fast surge model
-error (the identified surge row is far off at the water speeds a boat makes into a flood
-current) and slow yaw and sway ones; it is not the default because it settles onto a leg more
-slowly after a corner (the heading lags its command by 2-3 deg for seconds; the test suite's
-cross-current square: 0.57 m off mid-leg, 0.5 allowed) and measured no better on the arrivals
-and holds (``docs/tuning.md``).  Near standstill in a current the law lets the boat wander, so
-station keeping runs the PID family unless ``USV_STN_CTRL`` is 1 (:mod:`companion.control.system`);
-this law is for making way.  The measurements behind these choices are in ``docs/tuning.md``;
-the current figures in ``usv bench`` (``control``).
+velocities, the pair the chapter flies (on legs, with the fast coupling below taken out).  The
+water-relative pair's filter has a fast surge model error (the identified surge row is far off at
+the water speeds a boat makes into a flood current) and slow yaw and sway ones; it is not the
+default because it settles onto a leg more slowly after a corner (the heading lags its command
+by 2-3 deg for seconds; the test suite's cross-current square: 0.57 m off mid-leg, 0.5 allowed)
+and measured no better on the arrivals and holds (``docs/tuning.md``).  Near standstill in a
+current the law lets the boat wander, so station keeping runs the PID family unless
+``USV_STN_CTRL`` is 1 (:mod:`companion.control.system`); this law is for making way.
+
+On a leg with the chapter's filter (``ControlTarget.leg``, a course to make good, and the
+estimator's current, ``current``), the yaw row is evaluated with the *fast* part of the
+current-induced coupling taken out:
+
+    f_r = [A(nu) nu]_r - HP( [A(nu) nu]_r - [A(nu_r) nu_r]_r ),   HP(x) = x - LowPass(x, tau)
+
+(``coupling_tau_s``).  The chapter's delta_nu follows the slow part of the over-ground model's
+error, but a heading wobble across a current changes the sway the over-ground model sees faster
+than that; its fictitious yaw moment snaked the boat 0.7-0.85 m off a leg across 1.2 m/s.  The
+slow part stays with delta_nu, so in steady running the law is the chapter's.  The measurements
+behind these choices are in ``docs/tuning.md``; the current figures in ``usv bench`` (``control``).
 """
 
 from __future__ import annotations
@@ -92,6 +103,7 @@ from companion.control.pid import LowPass
 from companion.control.pid_family import HeadingLoopConfig, desired_turn_rate
 from companion.control.target import ControlOutput, ControlTarget, CrabEstimator
 from companion.messages import NavState
+from companion.models.base import FloatArray
 from companion.models.qlpv import QLPVModel
 
 DeltaNuSource = Callable[[], tuple[float, float, float] | None]
@@ -129,6 +141,10 @@ class ActiveModelConfig:
     this throttle's thrust; the surge row keeps what it asked for and the yaw row gets less than
     it asked.  At idle thrust the exact inversion turns the smallest yaw demand into full nozzle
     and the nozzle chatters from side to side."""
+    coupling_tau_s: float = 0.5
+    """On a leg with the chapter's filter: the low-pass time constant that splits the current-induced
+    yaw coupling into the slow part left to delta_nu and the fast part taken out of the model
+    (module docstring); 0 disables it."""
     turn_boost_full_error_rad: float = math.radians(90.0)
     """Below ``turn_boost_speed_mps`` the yaw row's extra thrust is scaled by the turn asked
     for: full at this heading error (or at the largest desired turn rate), in proportion below.
@@ -176,12 +192,15 @@ class ActiveModelController:
         self._dnu_r_lp = LowPass(self.cfg.model_error_tau_s, 0.0)
         self._last_rd: float | None = None
         self._rd_dot_lp = LowPass(self.cfg.rate_ff_tau_s, 0.0)
+        self._coupling_lp: LowPass | None = None
+        """The slow part of the current-induced yaw coupling (rad/s^2) while on a leg, else ``None``."""
 
     def reset(self, nav: NavState) -> None:
         self.crab.reset()
         self.speed_law.reset()
         self._last_rd = None
         self._rd_dot_lp.value = 0.0
+        self._coupling_lp = None
 
     def _body_current_mps(self, nav: NavState) -> tuple[float, float]:
         """The current in the body frame, ``R(psi)^T V_c`` (surge, sway m/s): what is taken off the
@@ -200,6 +219,24 @@ class ActiveModelController:
         if dn is not None and all(math.isfinite(x) for x in dn):
             self.dnu_u_raw = dn[0]
             self.dnu_r = self._dnu_r_lp.step(dn[2], dt_s)
+
+    def _fast_coupling_radps2(self, nav: NavState, target: ControlTarget, nu: FloatArray, f_r: float,
+                              dt_s: float) -> float:
+        """The fast part of the current-induced yaw coupling, ``HP(f_r(nu) - f_r(nu_r))`` (module
+        docstring), on a leg with the chapter's filter and the estimator's current; 0 otherwise
+        (and the filter starts again from the coupling of the moment on the next leg)."""
+        current = self.current_source() if self.current_source is not None else None
+        water_relative = self.model_current_source is not None and self.model_current_source() is not None
+        if (self.cfg.coupling_tau_s <= 0.0 or not target.leg or target.is_heading or current is None
+                or water_relative):
+            self._coupling_lp = None
+            return 0.0
+        u_c, v_c = current_body_mps(nav.heading_rad, current)
+        nu_r = np.array([nu[0] - u_c, nu[1] - v_c, nu[2]])
+        coupling = f_r - float((self.model.a_of_nu(nu_r) @ nu_r)[2])
+        if self._coupling_lp is None:
+            self._coupling_lp = LowPass(self.cfg.coupling_tau_s, coupling)
+        return coupling - self._coupling_lp.step(coupling, dt_s)
 
     def _rd_dot(self, r_d: float, dt_s: float) -> float:
         """Derivative of the virtual control ``r_d`` through a first-order command filter
@@ -278,7 +315,8 @@ class ActiveModelController:
         f = self.model.a_of_nu(nu) @ nu
         self._update_model_error(dt_s)
         r_dot_d = c.rate_k_per_s * (r_d - nav.r_radps) + self._rd_dot(r_d, dt_s)
-        w_sin = (r_dot_d - f[2] - self.dnu_r) / self._b_r
+        f_r = float(f[2]) - self._fast_coupling_radps2(nav, target, nu, float(f[2]), dt_s)
+        w_sin = (r_dot_d - f_r - self.dnu_r) / self._b_r
         w_cos = self.speed_law.thrust_demand(nav, target.speed_mps, self.dnu_u_raw, dt_s, float(f[0]))
         slow_over_ground = target.speed_mps < c.turn_boost_speed_mps
         stopping = target.stopping and nav.u_mps > target.speed_mps + c.speed.brake_deadband_mps

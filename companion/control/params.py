@@ -61,6 +61,10 @@ PARAMS: tuple[ParamDef, ...] = (
              "alone (0).", is_int=True, choices=((0, "Off"), (1, "On"))),
     ParamDef("USV_AM_DNU_TC", 1.0, 0.0, 10.0, "s",
              "Active model: low-pass time constant on delta_nu (wave filtering: do not chase wave forces)."),
+    ParamDef("USV_AM_CPL_TC", 0.5, 0.0, 10.0, "s",
+             "Active model on a leg: low-pass time constant that leaves the slow part of the current's "
+             "yaw coupling to delta_nu and takes the fast part out of the model (stops snaking across a "
+             "strong current); 0 = off."),
     ParamDef("USV_MAN_TIMEOUT", 1.0, 0.2, 10.0, "s",
              "MANUAL/CRUISE: pilot input (MAVLink MANUAL_CONTROL, else the RC receiver) older than this is "
              "ignored; in MANUAL the outputs then go safe (throttle idle, nozzle centred)."),
@@ -104,5 +108,5 @@ def active_model_config(p: ParamReader) -> ActiveModelConfig:
                                                  accel_max_mps2=p.get("USV_AM_ACC_MAX"),
                                                  decel_max_mps2=p.get("USV_AM_DEC_MAX")),
                              compensate_model_error=bool(p.get("USV_AM_DNU")),
-                             model_error_tau_s=p.get("USV_AM_DNU_TC"),
+                             model_error_tau_s=p.get("USV_AM_DNU_TC"), coupling_tau_s=p.get("USV_AM_CPL_TC"),
                              nozzle_max_rad=math.radians(p.get("USV_NOZ_MAX")))

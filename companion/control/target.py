@@ -52,6 +52,10 @@ class ControlTarget:
     to items it circles or holds, the legs of the hold on a circle).  While the boat is still faster
     than asked, the active model gives a heading wobble only the turn-scaled thrust of a slow boat
     (:mod:`companion.control.active_model`)."""
+    leg: bool = False
+    """The target follows a straight leg (line of sight, :mod:`companion.guidance.waypoints`): with
+    a path filter beside the chapter's, the control system flies it on that filter's model error
+    (:meth:`~companion.control.system.ControlSystem.on_water_path`)."""
 
 
 @dataclass(frozen=True, slots=True)

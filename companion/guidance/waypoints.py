@@ -265,4 +265,4 @@ class LegNavigator:
             lead = self._corner(speed_mps, current_ne_mps)[1]  # switch for the speed the boat has
         reached = remaining <= lead or dist_end <= c.accept_radius_m
         return LegStep(ControlTarget(out.course_rad, speed, out.course_rate_radps,
-                                     stopping=self.next_point is None), err, reached)
+                                     stopping=self.next_point is None, leg=True), err, reached)

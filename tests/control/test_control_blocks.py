@@ -293,3 +293,41 @@ def test_water_relative_law_steers_a_boat_carried_by_a_current_as_the_same_boat_
         assert water_relative == pytest.approx(reference, abs=1e-9)
     over_ground = output(in_current, vehicle_current=True, model_current=False)
     assert abs(over_ground[0] - reference[0]) > math.radians(2.0)
+
+
+def test_on_a_leg_a_heading_wobble_across_a_current_is_not_read_as_a_yaw_moment() -> None:
+    """Running north at 4 m/s through the water in a 1.2 m/s current toward north-east (the sway
+    over ground is the current's): the over-ground model's sway-yaw coupling depends on the
+    heading, so a 2 deg wobble changes the yaw moment it predicts although the sway through the
+    water did not change.  On a leg the law takes that fast change out (``coupling_tau_s``); in
+    steady running it is the chapter's law again (the slow part is left to delta_nu), and off a
+    leg (a heading target) or with the correction off it is unchanged."""
+    theta = toy_model().theta.copy()
+    theta[2, QLPV_FEATURES.index("v")] = 2.0  # a strong sway-yaw coupling
+    model = QLPVModel(theta=theta, name="toy", thrust_speed_coeff=0.05)
+    current = (1.2 * math.cos(math.radians(45.0)), 1.2 * math.sin(math.radians(45.0)))
+
+    def nav_at(t_s: float, psi: float) -> NavState:
+        u_c = current[0] * math.cos(psi) + current[1] * math.sin(psi)  # R(psi)^T V_c
+        v_c = -current[0] * math.sin(psi) + current[1] * math.cos(psi)
+        return nav_from(t_s, 0, 0, psi, np.array([4.0 + u_c, v_c, 0.0]))
+
+    def nozzles(tau_s: float, target: ControlTarget) -> list[float]:
+        ctl = ActiveModelController(model, ActiveModelConfig(coupling_tau_s=tau_s),
+                                    delta_nu=lambda: (0.0, 0.0, 0.0), current=lambda: current)
+        out = []
+        for k in range(700):
+            psi = math.radians(2.0) if k >= 300 else 0.0  # the wobble at 3 s
+            out.append(ctl.update(nav_at(0.01 * k, psi), target, 0.01, NO_SATURATION).nozzle_rad)
+        return out
+
+    steady = nav_at(0.0, 0.0)
+    course = math.atan2(steady.vel_east_mps, steady.vel_north_mps)  # made good at heading 0
+    leg = ControlTarget(course, 4.0, leg=True)
+    heading = ControlTarget(0.0, 4.0, is_heading=True)
+    before, after = nozzles(0.0, leg), nozzles(0.5, leg)
+    assert abs(before[299]) < math.radians(55.0)               # not at the nozzle's stop
+    assert after[:300] == pytest.approx(before[:300])          # steady: the chapter's law
+    assert abs(after[300] - before[300]) > math.radians(0.5)   # the wobble: the fictitious moment is gone
+    assert after[-1] == pytest.approx(before[-1], abs=1e-3)    # 4 s on: the slow part is delta_nu's again
+    assert nozzles(0.5, heading) == pytest.approx(nozzles(0.0, heading))
