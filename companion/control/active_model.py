@@ -202,13 +202,12 @@ class ActiveModelController:
         self._rd_dot_lp.value = 0.0
         self._coupling_lp = None
 
-    def _body_current_mps(self, nav: NavState) -> tuple[float, float]:
-        """The current in the body frame, ``R(psi)^T V_c`` (surge, sway m/s): what is taken off the
-        velocity over ground to get the one through the water; (0, 0) unless the model error is
-        the water-relative model's and fresh."""
+    def _model_current_ne(self) -> tuple[float, float] | None:
+        """The current delta_nu was estimated against (north, east m/s): in the body frame,
+        ``R(psi)^T V_c``, it is what is taken off the velocity over ground to get the one through
+        the water; ``None`` unless the model error is the water-relative model's and fresh."""
         source = self.model_current_source
-        current = source() if source is not None else None
-        return current_body_mps(nav.heading_rad, current)
+        return source() if source is not None else None
 
     def _update_model_error(self, dt_s: float) -> None:
         """Take the UKF's latest delta_nu (kept as it was when none or not finite; zero when
@@ -221,12 +220,12 @@ class ActiveModelController:
             self.dnu_r = self._dnu_r_lp.step(dn[2], dt_s)
 
     def _fast_coupling_radps2(self, nav: NavState, target: ControlTarget, nu: FloatArray, f_r: float,
-                              dt_s: float) -> float:
+                              water_relative: bool, dt_s: float) -> float:
         """The fast part of the current-induced yaw coupling, ``HP(f_r(nu) - f_r(nu_r))`` (module
-        docstring), on a leg with the chapter's filter and the estimator's current; 0 otherwise
-        (and the filter starts again from the coupling of the moment on the next leg)."""
+        docstring), on a leg with the chapter's filter (``nu`` over the ground: not
+        ``water_relative``) and the estimator's current; 0 otherwise (and the filter starts again
+        from the coupling of the moment on the next leg)."""
         current = self.current_source() if self.current_source is not None else None
-        water_relative = self.model_current_source is not None and self.model_current_source() is not None
         if (self.cfg.coupling_tau_s <= 0.0 or not target.leg or target.is_heading or current is None
                 or water_relative):
             self._coupling_lp = None
@@ -309,13 +308,15 @@ class ActiveModelController:
         psi_d = self.crab.heading_command(target)
         e_psi = wrap_pi(psi_d - nav.heading_rad)
         r_d = desired_turn_rate(c.heading, e_psi, target.course_rate_radps, nav.u_mps)
-        u_c, v_c = self._body_current_mps(nav)
+        model_current = self._model_current_ne()
+        u_c, v_c = current_body_mps(nav.heading_rad, model_current)
         u_water = nav.u_mps - u_c
         nu = np.array([u_water, nav.v_mps - v_c, nav.r_radps])  # nu_r (nu without a current)
         f = self.model.a_of_nu(nu) @ nu
         self._update_model_error(dt_s)
         r_dot_d = c.rate_k_per_s * (r_d - nav.r_radps) + self._rd_dot(r_d, dt_s)
-        f_r = float(f[2]) - self._fast_coupling_radps2(nav, target, nu, float(f[2]), dt_s)
+        water_relative = model_current is not None
+        f_r = float(f[2]) - self._fast_coupling_radps2(nav, target, nu, float(f[2]), water_relative, dt_s)
         w_sin = (r_dot_d - f_r - self.dnu_r) / self._b_r
         w_cos = self.speed_law.thrust_demand(nav, target.speed_mps, self.dnu_u_raw, dt_s, float(f[0]))
         slow_over_ground = target.speed_mps < c.turn_boost_speed_mps

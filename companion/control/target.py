@@ -53,9 +53,9 @@ class ControlTarget:
     than asked, the active model gives a heading wobble only the turn-scaled thrust of a slow boat
     (:mod:`companion.control.active_model`)."""
     leg: bool = False
-    """The target follows a straight leg (line of sight, :mod:`companion.guidance.waypoints`): with
-    a path filter beside the chapter's, the control system flies it on that filter's model error
-    (:meth:`~companion.control.system.ControlSystem.on_water_path`)."""
+    """The target follows a straight leg (line of sight, :mod:`companion.guidance.waypoints`): the
+    active-model law takes the fast part of the current's yaw coupling out of its over-ground model
+    there (``coupling_tau_s``, :mod:`companion.control.active_model`)."""
 
 
 @dataclass(frozen=True, slots=True)
