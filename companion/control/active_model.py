@@ -220,12 +220,12 @@ class ActiveModelController:
             self.dnu_r = self._dnu_r_lp.step(dn[2], dt_s)
 
     def _fast_coupling_radps2(self, nav: NavState, target: ControlTarget, nu: FloatArray, f_r: float,
-                              water_relative: bool, dt_s: float) -> float:
+                              water_relative: bool, current: tuple[float, float] | None,
+                              dt_s: float) -> float:
         """The fast part of the current-induced yaw coupling, ``HP(f_r(nu) - f_r(nu_r))`` (module
         docstring), on a leg with the chapter's filter (``nu`` over the ground: not
         ``water_relative``) and the estimator's current; 0 otherwise (and the filter starts again
         from the coupling of the moment on the next leg)."""
-        current = self.current_source() if self.current_source is not None else None
         if (self.cfg.coupling_tau_s <= 0.0 or not target.leg or target.is_heading or current is None
                 or water_relative):
             self._coupling_lp = None
@@ -275,10 +275,11 @@ class ActiveModelController:
         delta = math.copysign(c.nozzle_max_rad, delta)
         return delta, max(w_cos / math.cos(delta), abs(w_sin) / math.sin(c.nozzle_max_rad))
 
-    def _commanded_water_speed_mps(self, nav: NavState, target: ControlTarget) -> float:
-        """The commanded speed through the water: over ground minus the current along the bow
-        (the commanded speed itself without an estimate)."""
-        current = self.current_source() if self.current_source is not None else None
+    @staticmethod
+    def _commanded_water_speed_mps(nav: NavState, target: ControlTarget,
+                                   current: tuple[float, float] | None) -> float:
+        """The commanded speed through the water: over ground minus the estimator's ``current``
+        along the bow (the commanded speed itself without an estimate)."""
         return target.speed_mps - current_along_mps(nav.heading_rad, current)
 
     def _allocate_near_standstill(self, w_sin: float, w_cos: float, nav: NavState, target: ControlTarget,
@@ -315,14 +316,16 @@ class ActiveModelController:
         f = self.model.a_of_nu(nu) @ nu
         self._update_model_error(dt_s)
         r_dot_d = c.rate_k_per_s * (r_d - nav.r_radps) + self._rd_dot(r_d, dt_s)
+        current = self.current_source() if self.current_source is not None else None
         water_relative = model_current is not None
-        f_r = float(f[2]) - self._fast_coupling_radps2(nav, target, nu, float(f[2]), water_relative, dt_s)
+        fast = self._fast_coupling_radps2(nav, target, nu, float(f[2]), water_relative, current, dt_s)
+        f_r = float(f[2]) - fast
         w_sin = (r_dot_d - f_r - self.dnu_r) / self._b_r
         w_cos = self.speed_law.thrust_demand(nav, target.speed_mps, self.dnu_u_raw, dt_s, float(f[0]))
         slow_over_ground = target.speed_mps < c.turn_boost_speed_mps
         stopping = target.stopping and nav.u_mps > target.speed_mps + c.speed.brake_deadband_mps
         if (slow_over_ground or stopping
-                or self._commanded_water_speed_mps(nav, target) < c.turn_boost_speed_mps):
+                or self._commanded_water_speed_mps(nav, target, current) < c.turn_boost_speed_mps):
             delta, thrust = self._allocate_near_standstill(w_sin, w_cos, nav, target, e_psi, r_d, u_water,
                                                            capped=slow_over_ground and not target.circling)
         else:
