@@ -56,6 +56,11 @@ class ControlTarget:
     """The target follows a straight leg (line of sight, :mod:`companion.guidance.waypoints`): the
     active-model law takes the fast part of the current's yaw coupling out of its over-ground model
     there (``coupling_tau_s``, :mod:`companion.control.active_model`)."""
+    steady_crab_rad: float | None = None
+    """The crab angle (course over ground less heading) that holds ``course_rad`` in steady running
+    through the current guidance has observed (:func:`companion.guidance.current.steady_crab_rad`),
+    when it knows one: the measured crab the controllers remove is kept within
+    :data:`STEADY_CRAB_MARGIN_RAD` of it (:meth:`CrabEstimator.heading_command`)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -100,6 +105,14 @@ class CourseSpeedController(Protocol):
     def update(self, nav: NavState, target: ControlTarget, dt_s: float, sat: Saturation) -> ControlOutput: ...
 
 
+STEADY_CRAB_MARGIN_RAD = math.radians(8.0)
+"""How far the removed crab may stray from a target's ``steady_crab_rad``.  In a turn the course over
+ground lags the heading by 20-30 deg (the hull slips sideways through the water); removed in full,
+that slip leads the heading command past the new leg, and the lead outlasts the turn: the bow
+swung 10-15 deg past the leg's crab heading at every corner and the boat landed 0.4-0.6 m inside
+the leg 10 m after it (``docs/tuning.md``)."""
+
+
 class CrabEstimator:
     """Low-pass filtered crab angle ``beta = course over ground - heading`` (rad).
 
@@ -128,7 +141,12 @@ class CrabEstimator:
         return self.beta_rad
 
     def heading_command(self, target: ControlTarget) -> float:
-        """Heading to steer for ``target`` (crab removed unless the target is a heading)."""
+        """Heading to steer for ``target``: the crab removed unless the target is a heading, kept
+        within :data:`STEADY_CRAB_MARGIN_RAD` of the target's ``steady_crab_rad`` when it has one."""
         if target.is_heading:
             return target.course_rad
-        return target.course_rad - self.beta_rad
+        beta_rad = self.beta_rad
+        if target.steady_crab_rad is not None:
+            beta_rad = min(max(beta_rad, target.steady_crab_rad - STEADY_CRAB_MARGIN_RAD),
+                           target.steady_crab_rad + STEADY_CRAB_MARGIN_RAD)
+        return target.course_rad - beta_rad

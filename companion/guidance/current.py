@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from companion.guidance.geo import wrap_2pi
+from companion.guidance.geo import wrap_2pi, wrap_pi
 
 MAX_CRAB_SIN = 0.8
 """Largest |sin| of the crab angle the feed-forward asks for (53 deg): more is not steerable."""
@@ -113,3 +113,9 @@ def crab_heading(course_rad: float, water_speed_mps: float, current_ne_mps: tupl
 def water_speed_mps(vel_north_mps: float, vel_east_mps: float, current_ne_mps: tuple[float, float]) -> float:
     """Speed through the water: |v_g - c^| (m/s)."""
     return math.hypot(vel_north_mps - current_ne_mps[0], vel_east_mps - current_ne_mps[1])
+
+
+def steady_crab_rad(course_rad: float, water_speed_mps: float, current_ne_mps: tuple[float, float]) -> float:
+    """The crab angle, course over ground less heading (rad, -pi..pi), that makes good ``course_rad``
+    through ``current_ne_mps`` at ``water_speed_mps`` in steady running (:func:`crab_heading`)."""
+    return wrap_pi(course_rad - crab_heading(course_rad, water_speed_mps, current_ne_mps))

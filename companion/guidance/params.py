@@ -40,9 +40,10 @@ PARAMS: tuple[ParamDef, ...] = (
              choices=((0, "measured crab"), (1, "current feed-forward"))),
     ParamDef("USV_WP_TURN_SPD", 2.0, 0.5, 10.0, "m/s",
              "Speed through corners sharper than 30 degrees (the boat slows down before them)."),
-    ParamDef("USV_WP_DRIFT", 0, 0, 1, "",
-             "Corner planning on the water-relative path: 1 = the turn at a corner starts earlier (later) by "
-             "the drift the estimated current gives across the new leg during the turn; 0 = calm-water "
+    ParamDef("USV_WP_DRIFT", 1, 0, 1, "",
+             "Corner planning on the water-relative path: 1 = where a corner's turn starts is planned in "
+             "the water (the bow turns from the old leg's crab heading to the new leg's while the current "
+             "carries the boat), with guidance's observed current once it has converged; 0 = calm-water "
              "anticipation only.", is_int=True, choices=((0, "calm water"), (1, "current-aware"))),
     ParamDef("USV_WP_UTURN", 1, 0, 1, "",
              "U-turn onto a leg (heading more than 135 deg off it, e.g. AUTO started with the bow into the "

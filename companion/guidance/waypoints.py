@@ -89,6 +89,58 @@ def drift_lead_m(p0: Point, p1: Point, p2: Point, current_ne_mps: tuple[float, f
     return (current_ne_mps[0] * mn + current_ne_mps[1] * me) * turn_s / a_m
 
 
+def water_corner_lead_m(p0: Point, p1: Point, p2: Point, current_ne_mps: tuple[float, float],
+                        entry_speed_mps: float, corner_speed_mps: float, turn_rate_radps: float,
+                        yaw_lag_s: float) -> float | None:
+    """Turn anticipation (m before ``p1``) for the corner p0 -> p1 -> p2 planned on the water-relative
+    path; ``None`` where that path is not defined (then :func:`drift_lead_m` on the calm-water lead).
+
+    In a current the bow does not turn through the corner's angle: it turns from the old leg's crab
+    heading ``th0`` (water velocity ``w0 = U_in a - c`` at the entry speed over ground) to the new
+    leg's ``th1`` (``w1 = v b - c`` at the corner speed), on an arc drawn in the water at the larger
+    water speed ``U = max(|w0|, |w1|)`` over ``turn_rate_radps``, while the current carries the boat
+    ``c T`` over the arc's ``T = |th1 - th0| / r``.  Before it, the yaw lag ``t_l = yaw_lag_s
+    |th1 - th0| / pi`` runs on along the old leg at ``v`` (over ground: that speed already has the
+    current in it).  The sum, with ``s`` the turn's sign::
+
+        dp = (U / (r s)) (sin th1 - sin th0, cos th0 - cos th1) + c T + v t_l a
+
+    ends on the new leg's line when the turn starts ``L = (m . dp) / (m . a)`` before the corner
+    (``m`` the new leg's normal).  In calm water that is ``R tan(turn / 2) + v t_l``, the calm-water
+    anticipation of :class:`LegNavigator`."""
+    an, ae = p1[0] - p0[0], p1[1] - p0[1]
+    bn, be = p2[0] - p1[0], p2[1] - p1[1]
+    la, lb = math.hypot(an, ae), math.hypot(bn, be)
+    if la < 1e-9 or lb < 1e-9:
+        return None
+    an, ae, bn, be = an / la, ae / la, bn / lb, be / lb
+    mn, me = -be, bn
+    a_m = an * mn + ae * me
+    if abs(a_m) < 0.2:  # (nearly) straight on or back: no corner arc to plan
+        return None
+    sign = math.copysign(1.0, an * be - ae * bn)  # +1: the path turns right (clockwise)
+    cn, ce = current_ne_mps
+    w0 = (entry_speed_mps * an - cn, entry_speed_mps * ae - ce)
+    w1 = (corner_speed_mps * bn - cn, corner_speed_mps * be - ce)
+    u0, u1 = math.hypot(*w0), math.hypot(*w1)
+    if min(u0, u1) < MIN_WATER_SPEED_MPS:
+        return None
+    th0, th1 = math.atan2(w0[1], w0[0]), math.atan2(w1[1], w1[0])
+    turn_rad = wrap_pi(th1 - th0)
+    if turn_rad * sign <= 0.0:  # the bow would turn against the path: the current dominates
+        return None
+    arc_m = max(u0, u1) / turn_rate_radps * sign
+    turn_s = abs(turn_rad) / turn_rate_radps
+    lag_m = corner_speed_mps * yaw_lag_s * abs(turn_rad) / math.pi
+    dn = arc_m * (math.sin(th1) - math.sin(th0)) + cn * turn_s + lag_m * an
+    de = arc_m * (math.cos(th0) - math.cos(th1)) + ce * turn_s + lag_m * ae
+    return (mn * dn + me * de) / a_m
+
+
+MIN_WATER_SPEED_MPS = 0.3
+"""Below this speed through the water on either leg the crab heading is not defined."""
+
+
 def lead_for_cut_m(cut_m: float, radius_m: float) -> float:
     """The longest turn anticipation (m) before a corner that passes it within ``cut_m``.
 
@@ -221,9 +273,9 @@ class LegNavigator:
                 current_ne_mps: tuple[float, float] | None = None) -> tuple[float, float]:
         """(speed through the coming corner, anticipation distance before it); the turn radius is
         sized for ``speed_mps`` (the measured speed over ground) when that is above the corner speed.
-        With ``current_ne_mps`` the turn is planned on the water-relative path: the current sets
-        the boat ``c T`` during the turn of duration ``T``, so the turn starts earlier (or later) by
-        the part of that drift across the new leg (:func:`drift_lead_m`)."""
+        With ``current_ne_mps`` the turn is planned on the water-relative path
+        (:func:`water_corner_lead_m`; :func:`drift_lead_m` where that is not defined); a waypoint's
+        own radius caps the calm-water part only."""
         c = self.cfg
         if self.next_point is None:
             return c.speed_mps, 0.0
@@ -231,14 +283,19 @@ class LegNavigator:
         if turn < c.sharp_turn_rad:
             return c.speed_mps, 0.0
         v = min(c.speed_mps, c.turn_speed_mps)
-        radius = max(v, speed_mps or 0.0) / c.turn_rate_max_radps
-        lead = radius * math.tan(0.5 * min(turn, math.radians(150.0))) + v * c.yaw_lag_s * turn / math.pi
+        entry_mps = max(v, speed_mps or 0.0)
+        radius = entry_mps / c.turn_rate_max_radps
+        calm = radius * math.tan(0.5 * min(turn, math.radians(150.0))) + v * c.yaw_lag_s * turn / math.pi
+        lead = calm
         if c.corner_cut_max_m is not None:
             lead = min(lead, lead_for_cut_m(c.corner_cut_max_m, radius))
         if current_ne_mps is not None:
-            turn_s = turn / c.turn_rate_max_radps + c.yaw_lag_s * turn / math.pi
-            lead = max(0.0, lead + drift_lead_m(self.start, self.end, self.next_point, current_ne_mps,
-                                                turn_s))
+            water = water_corner_lead_m(self.start, self.end, self.next_point, current_ne_mps, entry_mps, v,
+                                        c.turn_rate_max_radps, c.yaw_lag_s)
+            if water is None:
+                turn_s = turn / c.turn_rate_max_radps + c.yaw_lag_s * turn / math.pi
+                water = calm + drift_lead_m(self.start, self.end, self.next_point, current_ne_mps, turn_s)
+            lead = max(0.0, lead + water - calm)
         return v, lead
 
     def update(self, pos_ne: Point, speed_mps: float, dt_s: float,

@@ -20,7 +20,7 @@ from typing import Protocol
 from companion.angles import current_along_mps
 from companion.clock import StepTimer
 from companion.control.target import ControlRequest, ControlTarget
-from companion.guidance.current import CurrentObserver, crab_heading, water_speed_mps
+from companion.guidance.current import CurrentObserver, crab_heading, steady_crab_rad, water_speed_mps
 from companion.guidance.geo import LocalFrame, distance_bearing, wrap_2pi, wrap_pi
 from companion.guidance.hold_params import current_station_gains
 from companion.guidance.los import LosFollower, LosType
@@ -72,8 +72,26 @@ def crabbed(target: ControlTarget, nav: NavState, drift: CurrentObserver | None)
     if drift is None or target.is_heading:
         return target
     c = drift.current_ne_mps
-    u_w = max(water_speed_mps(nav.vel_north_mps, nav.vel_east_mps, c), 1.0)
-    return replace(target, course_rad=crab_heading(target.course_rad, u_w, c), is_heading=True)
+    return replace(target, course_rad=crab_heading(target.course_rad, _crab_water_speed_mps(nav, c), c),
+                   is_heading=True)
+
+
+def with_steady_crab(target: ControlTarget, nav: NavState, drift: CurrentObserver | None) -> ControlTarget:
+    """``target`` with the crab that holds its course in steady running through the observer's
+    current (``steady_crab_rad``: the controllers keep the measured crab they remove near it, so a
+    turn's sideslip does not swing the bow past the next leg); unchanged without a converged
+    observer or for a heading target."""
+    if drift is None or target.is_heading:
+        return target
+    c = drift.current_ne_mps
+    crab_rad = steady_crab_rad(target.course_rad, _crab_water_speed_mps(nav, c), c)
+    return replace(target, steady_crab_rad=crab_rad)
+
+
+def _crab_water_speed_mps(nav: NavState, current_ne_mps: tuple[float, float]) -> float:
+    """The speed through the water a crab is computed for: at least 1 m/s (a slow boat's crab would
+    ask for more than the bow can hold)."""
+    return max(water_speed_mps(nav.vel_north_mps, nav.vel_east_mps, current_ne_mps), 1.0)
 
 
 CURRENT_MIN_CONFIDENCE = 0.5
@@ -208,6 +226,7 @@ class GotoTask:
         self.cross_track_m = st.errors.cross_m
         self.reached = self.reached or st.reached
         target = crabbed(st.target, nav, crab_feed_forward(self.params, self.drift))
+        target = with_steady_crab(target, nav, drift)
         if int(self.params.get_or("USV_WP_UTURN", 0.0)) == 1:
             target = self._turn_onto_leg(target, nav, st.errors.path_angle_rad)
         return target

@@ -17,7 +17,7 @@ from companion.control.actuator import (
 )
 from companion.control.pid import Pid, PidGains, RateLimiter
 from companion.control.pid_family import PidConfig, PidController, desired_turn_rate
-from companion.control.target import ControlTarget
+from companion.control.target import STEADY_CRAB_MARGIN_RAD, ControlTarget, CrabEstimator
 from companion.guidance.geo import wrap_pi
 from companion.messages import NavState
 from companion.models.qlpv import QLPV_FEATURES, QLPVModel
@@ -293,6 +293,30 @@ def test_water_relative_law_steers_a_boat_carried_by_a_current_as_the_same_boat_
         assert water_relative == pytest.approx(reference, abs=1e-9)
     over_ground = output(in_current, vehicle_current=True, model_current=False)
     assert abs(over_ground[0] - reference[0]) > math.radians(2.0)
+
+
+def test_a_turns_sideslip_does_not_lead_the_heading_past_the_next_leg() -> None:
+    """Coming out of a turn onto a leg heading 180 deg the hull still slips 25 deg (course 175,
+    bow 200): removed in full, that crab would hold the bow at 205 deg, 19 past the 186 deg that
+    holds the leg through the current guidance has observed (steady crab -6 deg).  With the steady
+    crab known the removed crab stays within the margin of it; without, or for a heading, as before."""
+    crab = CrabEstimator(tau_s=0.3)
+    slip = [3.0, 3.0 * math.tan(math.radians(-25.0)), 0.5]
+    for k in range(40):
+        beta_rad = crab.update(nav_from(0.1 * k, 0.0, 0.0, math.radians(200.0), np.array(slip)), 0.1)
+    assert beta_rad == pytest.approx(math.radians(-25.0), abs=1e-3)
+    leg = ControlTarget(math.radians(180.0), 4.0, leg=True)
+    assert math.degrees(crab.heading_command(leg)) == pytest.approx(205.0, abs=0.1)
+    steady = ControlTarget(math.radians(180.0), 4.0, leg=True, steady_crab_rad=math.radians(-6.0))
+    expected_deg = 180.0 + 6.0 + math.degrees(STEADY_CRAB_MARGIN_RAD)
+    assert math.degrees(crab.heading_command(steady)) == pytest.approx(expected_deg, abs=0.1)
+    heading = ControlTarget(math.radians(180.0), 4.0, is_heading=True, steady_crab_rad=math.radians(-6.0))
+    assert math.degrees(crab.heading_command(heading)) == pytest.approx(180.0)
+    # on the leg in steady running the measured crab is the steady one: nothing is clamped
+    for k in range(40):
+        crab.update(nav_from(4.0 + 0.1 * k, 0.0, 0.0, math.radians(186.0),
+                             np.array([4.0, 4.0 * math.tan(math.radians(-6.0)), 0.0])), 0.1)
+    assert crab.heading_command(steady) == pytest.approx(crab.heading_command(leg))
 
 
 def test_on_a_leg_a_heading_wobble_across_a_current_is_not_read_as_a_yaw_moment() -> None:

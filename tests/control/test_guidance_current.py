@@ -15,7 +15,13 @@ from companion.guidance.current import MAX_CRAB_SIN, CurrentObserver, crab_headi
 from companion.guidance.geo import LocalFrame, distance_to_segment_m, wrap_pi
 from companion.guidance.sidestep import sidestep_point
 from companion.guidance.stem import stem_route
-from companion.guidance.waypoints import UTurnLatch, drift_lead_m, pivot_speed_mps, u_turn_sign
+from companion.guidance.waypoints import (
+    UTurnLatch,
+    drift_lead_m,
+    pivot_speed_mps,
+    u_turn_sign,
+    water_corner_lead_m,
+)
 from companion.messages import NavState
 from companion.modes.circle_item import CircleTask, circling_clockwise
 from companion.modes.navigation import GotoTask
@@ -766,6 +772,29 @@ def test_corner_starts_earlier_when_the_current_sets_the_boat_past_the_new_leg()
     assert drift_lead_m((50.0, 50.0), (0.0, 50.0), (0.0, 0.0), (0.0, 1.2), 3.0) == pytest.approx(0.0)
     # current toward west on the first corner: it sets the boat back from the new leg, turn later
     assert drift_lead_m(*east_leg, south_leg, (0.0, -0.5), 3.0) == pytest.approx(-1.5)
+
+
+def test_corner_planned_in_the_water_turns_the_bow_from_crab_heading_to_crab_heading() -> None:
+    north_then_east = ((0.0, 0.0), (50.0, 0.0), (50.0, 50.0))
+    rate, lag = math.radians(45.0), 2.5
+
+    def lead(current: tuple[float, float], entry_mps: float = 2.0) -> float | None:
+        return water_corner_lead_m(*north_then_east, current, entry_mps, 2.0, rate, lag)
+
+    # calm water: the calm-water anticipation, an arc of U / r tangent to both legs plus the yaw lag
+    assert lead((0.0, 0.0)) == pytest.approx(2.0 / rate + 2.0 * lag * 0.5)
+    assert lead((0.0, 0.0), 3.0) == pytest.approx(3.0 / rate + 2.0 * lag * 0.5)
+    # 1.2 m/s toward east, along the new leg: no drift across it, but the bow crabs 31 deg west of
+    # north on the old leg and turns 121 deg, not 90, at 2.33 m/s through the water: turn earlier
+    along_new, calm_lead = lead((0.0, 1.2)), lead((0.0, 0.0))
+    assert along_new is not None and calm_lead is not None and along_new > calm_lead + 2.0
+    # toward north, down the old leg, it carries the boat past the new leg: earlier; up it, later
+    calm, down_old, up_old = lead((0.0, 0.0)), lead((0.8, 0.0)), lead((-0.8, 0.0))
+    assert calm is not None and down_old is not None and up_old is not None
+    assert down_old > calm + 1.0 and up_old < calm - 0.5
+    # not defined: straight on; a current as fast as the corner speed down the new leg
+    assert water_corner_lead_m((0.0, 0.0), (50.0, 0.0), (100.0, 1.0), (0.5, 0.0), 2.0, 2.0, rate, lag) is None
+    assert lead((0.0, 2.0)) is None
 
 
 def _latest(readings: list[tuple[float, float]]) -> Callable[[], tuple[float, float]]:
