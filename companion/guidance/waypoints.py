@@ -89,6 +89,10 @@ def drift_lead_m(p0: Point, p1: Point, p2: Point, current_ne_mps: tuple[float, f
     return (current_ne_mps[0] * mn + current_ne_mps[1] * me) * turn_s / a_m
 
 
+MIN_WATER_SPEED_MPS = 0.3
+"""Below this speed through the water on either leg the crab heading is not defined."""
+
+
 def water_corner_lead_m(p0: Point, p1: Point, p2: Point, current_ne_mps: tuple[float, float],
                         entry_speed_mps: float, corner_speed_mps: float, turn_rate_radps: float,
                         yaw_lag_s: float) -> float | None:
@@ -135,10 +139,6 @@ def water_corner_lead_m(p0: Point, p1: Point, p2: Point, current_ne_mps: tuple[f
     dn = arc_m * (math.sin(th1) - math.sin(th0)) + cn * turn_s + lag_m * an
     de = arc_m * (math.cos(th0) - math.cos(th1)) + ce * turn_s + lag_m * ae
     return (mn * dn + me * de) / a_m
-
-
-MIN_WATER_SPEED_MPS = 0.3
-"""Below this speed through the water on either leg the crab heading is not defined."""
 
 
 def lead_for_cut_m(cut_m: float, radius_m: float) -> float:

@@ -79,8 +79,8 @@ def crabbed(target: ControlTarget, nav: NavState, drift: CurrentObserver | None)
 def with_steady_crab(target: ControlTarget, nav: NavState, drift: CurrentObserver | None) -> ControlTarget:
     """``target`` with the crab that holds its course in steady running through the observer's
     current (``steady_crab_rad``: the controllers keep the measured crab they remove near it, so a
-    turn's sideslip does not swing the bow past the next leg); unchanged without a converged
-    observer or for a heading target."""
+    turn's sideslip does not swing the bow past the next leg).  ``drift``: the observer once it has
+    converged, else ``None`` (then, and for a heading target, ``target`` unchanged)."""
     if drift is None or target.is_heading:
         return target
     c = drift.current_ne_mps
