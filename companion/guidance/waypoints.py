@@ -100,12 +100,15 @@ def water_corner_lead_m(p0: Point, p1: Point, p2: Point, current_ne_mps: tuple[f
     path; ``None`` where that path is not defined (then :func:`drift_lead_m` on the calm-water lead).
 
     In a current the bow does not turn through the corner's angle: it turns from the old leg's crab
-    heading ``th0`` (water velocity ``w0 = U_in a - c`` at the entry speed over ground) to the new
-    leg's ``th1`` (``w1 = v b - c`` at the corner speed), on an arc drawn in the water at the larger
-    water speed ``U = max(|w0|, |w1|)`` over ``turn_rate_radps``, while the current carries the boat
-    ``c T`` over the arc's ``T = |th1 - th0| / r``.  Before it, the yaw lag ``t_l = yaw_lag_s
-    |th1 - th0| / pi`` runs on along the old leg at ``v`` (over ground: that speed already has the
-    current in it).  The sum, with ``s`` the turn's sign::
+    heading ``th0`` (water velocity ``w0 = U_in a - c`` at the entry speed over ground ``U_in``) to
+    the new leg's ``th1`` (``w1 = v b - c`` at the corner speed ``v``), on an arc drawn in the water
+    over ``turn_rate_radps``, while the current carries the boat ``c T`` over the arc's ``T =
+    |th1 - th0| / r``.  The arc's water speed is the calm-water one changed by the mean of what the
+    current does to it at the turn's start and end, ``U = U_in + ((|w0| - U_in) + (|w1| - v)) / 2``
+    (down a new leg the boat turns slower through the water, and tighter).  Before the arc the yaw
+    lag ``t_l = yaw_lag_s turn / pi`` (the path's turn, as in calm water) runs on along the old leg
+    at ``v`` over ground (that speed already has the current in it).  The sum, ``s`` the turn's
+    sign::
 
         dp = (U / (r s)) (sin th1 - sin th0, cos th0 - cos th1) + c T + v t_l a
 
@@ -133,9 +136,12 @@ def water_corner_lead_m(p0: Point, p1: Point, p2: Point, current_ne_mps: tuple[f
     turn_rad = wrap_pi(th1 - th0)
     if turn_rad * sign <= 0.0:  # the bow would turn against the path: the current dominates
         return None
-    arc_m = max(u0, u1) / turn_rate_radps * sign
+    arc_speed_mps = max(MIN_WATER_SPEED_MPS,
+                        entry_speed_mps + 0.5 * ((u0 - entry_speed_mps) + (u1 - corner_speed_mps)))
+    arc_m = arc_speed_mps / turn_rate_radps * sign
     turn_s = abs(turn_rad) / turn_rate_radps
-    lag_m = corner_speed_mps * yaw_lag_s * abs(turn_rad) / math.pi
+    path_turn_rad = math.acos(max(-1.0, min(1.0, an * bn + ae * be)))
+    lag_m = corner_speed_mps * yaw_lag_s * path_turn_rad / math.pi
     dn = arc_m * (math.sin(th1) - math.sin(th0)) + cn * turn_s + lag_m * an
     de = arc_m * (math.cos(th0) - math.cos(th1)) + ce * turn_s + lag_m * ae
     return (mn * dn + me * de) / a_m
