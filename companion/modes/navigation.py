@@ -135,6 +135,11 @@ class GotoTask:
         own_radius = accept_radius_m if accept_radius_m is not None and accept_radius_m > 0 else None
         radius = own_radius if own_radius is not None else param(params, "WP_RADIUS")
         los_type = LosType(int(params.get("USV_LOS_TYPE")))
+        self.from_corner = follower is not None
+        """The leg starts at a corner of a route (the previous leg's follower carried over): its
+        target carries the steady crab (:func:`with_steady_crab`), for the exit of that corner's
+        turn.  A leg started from a hold, from rest or by a new go-to does not: joining it, the
+        turn's full sideslip lead measured better (``docs/tuning.md``)."""
         if follower is None or follower.los_type != los_type:
             follower = LosFollower(los_gains(params), los_type)
         self.follower = follower
@@ -226,7 +231,8 @@ class GotoTask:
         self.cross_track_m = st.errors.cross_m
         self.reached = self.reached or st.reached
         target = crabbed(st.target, nav, crab_feed_forward(self.params, self.drift))
-        target = with_steady_crab(target, nav, drift)
+        if self.from_corner:
+            target = with_steady_crab(target, nav, drift)
         if int(self.params.get_or("USV_WP_UTURN", 0.0)) == 1:
             target = self._turn_onto_leg(target, nav, st.errors.path_angle_rad)
         return target
