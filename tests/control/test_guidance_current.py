@@ -798,6 +798,32 @@ def test_corner_planned_in_the_water_turns_the_bow_from_crab_heading_to_crab_hea
     assert lead((0.0, 2.0)) is None
 
 
+def test_a_leg_from_a_corner_keeps_its_crab_near_the_steady_crab_and_a_first_leg_does_not() -> None:
+    """0.5 m/s toward east, observed on north and east legs; the next leg runs north at 4 m/s through
+    the water: the bow must crab 7.2 deg west of it.  A leg that starts at a route's corner (the
+    previous leg's follower carried over) hands the controllers that steady crab; a first leg
+    (joined from a hold, from rest or by a go-to) leaves the measured crab alone."""
+    observer = CurrentObserver()
+    for heading_deg in (0.0, 90.0):
+        h = math.radians(heading_deg)
+        for _ in range(200):  # 20 s on each heading: converged
+            observer.update(4.0 * math.cos(h), 4.0 * math.sin(h) + 0.5, h, 0.0, 0.1)
+    assert observer.converged
+    params = ParamStore(all_param_defs())
+    home = (41.77, 123.43)
+    frame = LocalFrame(*home)
+    north = frame.to_lat_lon(50.0, 0.0)
+    lat, lon = frame.to_lat_lon(10.0, 0.0)
+    running = NavState(t_s=0.0, lat_deg=lat, lon_deg=lon, alt_m=0.0, heading_rad=math.radians(-7.2),
+                       roll_rad=0.0, pitch_rad=0.0, vel_north_mps=4.0 * math.cos(math.radians(7.2)),
+                       vel_east_mps=0.0, u_mps=4.0, v_mps=0.5, r_radps=0.0)
+    first = GotoTask(params, home, north, 4.0, drift=observer)
+    assert first.step(running, 0.1).steady_crab_rad is None
+    after_corner = GotoTask(params, home, north, 4.0, follower=first.follower, drift=observer)
+    crab_rad = after_corner.step(running, 0.1).steady_crab_rad
+    assert crab_rad is not None and math.degrees(crab_rad) == pytest.approx(7.2, abs=0.3)
+
+
 def _latest(readings: list[tuple[float, float]]) -> Callable[[], tuple[float, float]]:
     return lambda: readings[0]
 
