@@ -251,6 +251,24 @@ def _mid_leg_cross_track_m(track: list[tuple[float, float]], a: tuple[float, flo
     return out
 
 
+async def _fly_waypoints(h: SitlHarness,
+                         points: list[tuple[float, float]]) -> dict[int, list[tuple[float, float]]]:
+    """Arm, fly ``points`` (north, east m from home) as an AUTO mission of waypoints to completion;
+    the boat's positions by the mission item being flown."""
+    vehicle = await _start(h)
+    plan = _plan(LocalFrame(*HOME), [(mi.CMD_NAV_WAYPOINT, ne, {}) for ne in points])
+    vehicle.missions.replace(MissionType.MISSION, plan)
+    assert vehicle.set_mode(10) is None
+    legs: dict[int, list[tuple[float, float]]] = {}
+    for _ in range(1200):
+        await h.run_for(0.1)
+        legs.setdefault(vehicle.current_seq, []).append(_pos(h))
+        if vehicle.mission_state == MissionState.COMPLETE:
+            break
+    assert vehicle.mission_state == MissionState.COMPLETE
+    return legs
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", [2, 3])
 async def test_auto_square_in_cross_current_holds_the_middle_of_every_leg(seed: int) -> None:
@@ -260,19 +278,8 @@ async def test_auto_square_in_cross_current_holds_the_middle_of_every_leg(seed: 
     boat never gets 2 m off the square, corners included."""
     async with SitlHarness(seed=seed, wind="3,45", current="0.5,90", waves="0.3", full_stack=True,
                            params={"USV_CTRL_TYPE": CTRL_ACTIVE_MODEL, "WP_SPEED": 5.0}) as h:
-        vehicle = await _start(h)
-        frame = LocalFrame(*HOME)
         corners = [(0.0, 0.0), (50.0, 0.0), (50.0, 50.0), (0.0, 50.0), (0.0, 0.0)]
-        plan = _plan(frame, [(mi.CMD_NAV_WAYPOINT, ne, {}) for ne in corners])
-        vehicle.missions.replace(MissionType.MISSION, plan)
-        assert vehicle.set_mode(10) is None
-        legs: dict[int, list[tuple[float, float]]] = {}  # mission seq being flown -> positions
-        for _ in range(1200):
-            await h.run_for(0.1)
-            legs.setdefault(vehicle.current_seq, []).append(_pos(h))
-            if vehicle.mission_state == MissionState.COMPLETE:
-                break
-        assert vehicle.mission_state == MissionState.COMPLETE
+        legs = await _fly_waypoints(h, corners)
         mid = [_mid_leg_cross_track_m(legs[seq], corners[seq - 2], corners[seq - 1]) for seq in (2, 3, 4, 5)]
         assert max(max(leg) for leg in mid) <= 0.5, [max(leg) for leg in mid]
         pooled = [x for leg in mid for x in leg]  # as usv bench pools the middles of the legs
@@ -290,19 +297,8 @@ async def test_auto_square_in_calm_water_comes_out_of_every_corner_onto_the_next
     issue's mid-leg targets).  Removing a turn's sideslip as crab in full swung the bow 10-15 deg
     past the next leg: 0.41-0.50 m inside it 10 m on (``STEADY_CRAB_MARGIN_RAD``)."""
     async with SitlHarness(seed=seed, current="0,0", wind="0,0", waves="0", full_stack=True) as h:
-        vehicle = await _start(h)
-        frame = LocalFrame(*HOME)
         corners = [(0.0, 0.0), (50.0, 0.0), (50.0, 50.0), (0.0, 50.0), (0.0, 0.0)]
-        vehicle.missions.replace(MissionType.MISSION,
-                                 _plan(frame, [(mi.CMD_NAV_WAYPOINT, ne, {}) for ne in corners[1:]]))
-        assert vehicle.set_mode(10) is None
-        legs: dict[int, list[tuple[float, float]]] = {}  # mission seq being flown -> positions
-        for _ in range(1200):
-            await h.run_for(0.1)
-            legs.setdefault(vehicle.current_seq, []).append(_pos(h))
-            if vehicle.mission_state == MissionState.COMPLETE:
-                break
-        assert vehicle.mission_state == MissionState.COMPLETE
+        legs = await _fly_waypoints(h, corners[1:])
         mid = [_mid_leg_cross_track_m(legs[seq], corners[seq - 1], corners[seq]) for seq in (1, 2, 3, 4)]
         assert max(max(leg) for leg in mid) <= 0.4, [max(leg) for leg in mid]
         pooled = [x for leg in mid for x in leg]
