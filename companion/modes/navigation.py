@@ -136,10 +136,11 @@ class GotoTask:
         radius = own_radius if own_radius is not None else param(params, "WP_RADIUS")
         los_type = LosType(int(params.get("USV_LOS_TYPE")))
         self.from_corner = follower is not None
-        """The leg starts at a corner of a route (the previous leg's follower carried over): its
+        """The leg starts at a corner of a route (AUTO carried the previous leg's follower over): its
         target carries the steady crab (:func:`with_steady_crab`), for the exit of that corner's
         turn.  A leg started from a hold, from rest or by a new go-to does not: joining it, the
-        turn's full sideslip lead measured better (``docs/tuning.md``)."""
+        turn's full sideslip lead measured better (``docs/tuning.md``).  (A GUIDED or RTL approach
+        planned again also carries its follower, but has no observer: nothing changes there.)"""
         if follower is None or follower.los_type != los_type:
             follower = LosFollower(los_gains(params), los_type)
         self.follower = follower
