@@ -56,7 +56,8 @@ from sim_bridge.sitl import SitlHarness
 STEP_S = 0.1
 """Vehicle seconds between two truth samples."""
 SIM_ORIGIN = (41.77, 123.43)
-"""Where the simulated boat starts (:class:`~sim_bridge.sitl.SitlHarness`'s default)."""
+"""Where the simulated boat starts (given to :class:`~sim_bridge.sitl.SitlHarness`): the origin of
+its truth positions."""
 FIGURES = ("goto_s", "arrival_max_m", "loiter_max_m", "loiter_rms_m", "rtl_s", "rtl_arrival_max_m",
            "square_side_max_m", "square_first_15s_max_m")
 
@@ -126,7 +127,7 @@ async def fly(cell: Cell, params: dict[str, float] | None = None) -> SequenceFig
     """The script of the module docstring on ``cell``."""
     async with SitlHarness(seed=cell.seed, current=f"{cell.current_mps},{cell.current_toward_deg}",
                            wind=f"{cell.wind_mps},{cell.wind_from_deg}", waves=f"{cell.waves_hs_m}",
-                           full_stack=True, params=params) as h:
+                           home=SIM_ORIGIN, full_stack=True, params=params) as h:
         f = _Flight(h)
         v = f.vehicle
         radius_m = v.params.get("WP_RADIUS")
