@@ -140,8 +140,7 @@ def water_corner_lead_m(p0: Point, p1: Point, p2: Point, current_ne_mps: tuple[f
                         entry_speed_mps + 0.5 * ((u0 - entry_speed_mps) + (u1 - corner_speed_mps)))
     arc_m = arc_speed_mps / turn_rate_radps * sign
     turn_s = abs(turn_rad) / turn_rate_radps
-    path_turn_rad = math.acos(max(-1.0, min(1.0, an * bn + ae * be)))
-    lag_m = corner_speed_mps * yaw_lag_s * path_turn_rad / math.pi
+    lag_m = corner_speed_mps * yaw_lag_s * turn_angle_rad(p0, p1, p2) / math.pi
     dn = arc_m * (math.sin(th1) - math.sin(th0)) + cn * turn_s + lag_m * an
     de = arc_m * (math.cos(th0) - math.cos(th1)) + ce * turn_s + lag_m * ae
     return (mn * dn + me * de) / a_m
