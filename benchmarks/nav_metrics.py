@@ -144,6 +144,14 @@ def _segment(p: np.ndarray, a: tuple[float, float], b: tuple[float, float]) -> t
     return np.stack([along, cross]), seg
 
 
+def mid_leg_cross_m(pts: np.ndarray, a: tuple[float, float], b: tuple[float, float]) -> np.ndarray:
+    """Cross-track distances from the leg a -> b of the points ``pts`` (N x 2) flown on it that lie
+    more than :data:`MID_LEG_MARGIN_M` along from either end (the leg's middle)."""
+    (along, cross), _ = _segment(pts, a, b)
+    length = math.dist(a, b)
+    return np.asarray(cross[(along >= MID_LEG_MARGIN_M) & (along <= length - MID_LEG_MARGIN_M)])
+
+
 def path_distance(pts: np.ndarray, path: list[tuple[float, float]]) -> np.ndarray:
     """Distance of points ``pts`` (N x 2, north/east) from the nearest segment of the polyline ``path``."""
     return np.asarray(np.min([_segment(pts, path[k], path[k + 1])[1] for k in range(len(path) - 1)], axis=0))
@@ -168,9 +176,7 @@ def square(truth: Truth, t0: float, t1: float, corners: list[tuple[float, float]
         leg_end = reached.get(k, t1)
         sel = truth.window(leg_start, leg_end)
         p = np.stack([truth.n[sel], truth.e[sel]], axis=1)
-        (along, cross), _ = _segment(p, path[k - 1], path[k])
-        length = math.dist(path[k - 1], path[k])
-        mid.append(cross[(along >= MID_LEG_MARGIN_M) & (along <= length - MID_LEG_MARGIN_M)])
+        mid.append(mid_leg_cross_m(p, path[k - 1], path[k]))
         leg_start = leg_end
     mids = np.concatenate(mid) if mid else np.array([])
     worst = int(np.argmax(side))

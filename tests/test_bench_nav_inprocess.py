@@ -21,6 +21,8 @@ def test_a_cell_flown_twice_gives_the_same_figures_and_the_boat_holds_its_points
     # slack water: the boat orbits its points at USV_TURN_RAD (2 m); the square is flown
     assert first.loiter_max_m < 5.0 and first.arrival_max_m < 6.0
     assert first.square_side_max_m < 3.0
+    # calm water, mid-leg: on the line (the bench's mid-leg cross-track, flown straight)
+    assert 0.0 <= first.square_mid_leg_rms_m < 0.3 and first.square_mid_leg_max_m < 0.6
 
 
 def _row(name: str, **figures: float) -> dict[str, object]:
@@ -35,6 +37,14 @@ def test_compare_counts_cells_better_and_worse_beyond_the_tolerance() -> None:
     out = compare(base, new, tolerance_m=0.3)
     assert out["loiter_max_m"] == {"better": 1, "worse": 1}  # b within tolerance; d has no base
     assert out["goto_s"] == {"better": 0, "worse": 0}
+
+
+def test_compare_judges_the_mid_leg_figures_on_their_own_scale_and_skips_figures_the_base_lacks() -> None:
+    base = [_row("a"), _row("b")]
+    del base[1]["figures"]["square_mid_leg_rms_m"]  # type: ignore[index]
+    new = [_row("a", square_mid_leg_rms_m=1.1), _row("b", square_mid_leg_rms_m=0.2)]
+    out = compare(base, new, tolerance_m=0.3)
+    assert out["square_mid_leg_rms_m"] == {"better": 0, "worse": 1}  # 0.1 m matters on a 0.15 m target
 
 
 def test_summary_keeps_timed_out_phases_apart_from_the_mean() -> None:
