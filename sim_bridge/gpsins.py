@@ -30,11 +30,11 @@ from typing import NamedTuple
 
 import numpy as np
 
+from companion.guidance.geo import LocalFrame
 from companion.sensors.nmea import frame
 from sim_bridge.noise import NormalStream
 from sim_bridge.plant import PlantState
 
-EARTH_RADIUS_M = 6378137.0
 GPS_EPOCH_UNIX_S = 315964800.0
 GPS_LEAP_S = 18.0
 SUPPORTED_RATES_HZ = (1, 5, 10, 100)
@@ -114,8 +114,7 @@ class GpsInsModel:
             raise ValueError(f"GPS-INS rate {rate_hz} Hz not one of {SUPPORTED_RATES_HZ}")
         self.rng = np.random.default_rng([seed, 0x9125])
         self.home_lat_deg, self.home_lon_deg = home_lat_deg, home_lon_deg
-        self._m_per_deg_lat = math.radians(1.0) * EARTH_RADIUS_M
-        self._m_per_deg_lon = self._m_per_deg_lat * math.cos(math.radians(home_lat_deg))
+        self._frame = LocalFrame(home_lat_deg, home_lon_deg)
         self.rate_hz = rate_hz
         self.start_unix_s = start_unix_s
         self.faults = SensorFaults()
@@ -132,9 +131,11 @@ class GpsInsModel:
         self._last: Measurement | None = None
 
     def lat_lon(self, north_m: float, east_m: float) -> tuple[float, float]:
-        """Geodetic degrees of a position relative to home, as this device converts it (no noise)."""
-        return (self.home_lat_deg + north_m / self._m_per_deg_lat,
-                self.home_lon_deg + east_m / self._m_per_deg_lon)
+        """WGS-84 degrees of a position in metres north/east of home (no noise), on the tangent plane
+        at home as the companion's :class:`~companion.guidance.geo.LocalFrame` reads them back: a
+        spherical earth (as before) put a point 50 m off 0.1 m from where the companion and the
+        benches placed it, as much as a leg's cross-track target."""
+        return self._frame.to_lat_lon(north_m, east_m)
 
     def due(self, step_index: int, step_s: float) -> bool:
         """Whether a sample is output at this physics step (rate divides 1/step_s)."""
@@ -186,8 +187,8 @@ class GpsInsModel:
         acc_y = (s.u_dot_mps2 - s.v_r_mps * s.r_radps) / g + self._sig_acc_g * n()
         self.samples += 1
         pitch = self._sig_att_deg * n()
-        return Measurement(s.t_s, self.home_lat_deg + north / self._m_per_deg_lat,
-                           self.home_lon_deg + east / self._m_per_deg_lon, heading, pitch,
+        lat_deg, lon_deg = self.lat_lon(north, east)
+        return Measurement(s.t_s, lat_deg, lon_deg, heading, pitch,
                            self._sig_att_deg * n(), ve, vn,
                            self._last_gyro, acc_x, acc_y, nsv, status, north, east)
 

@@ -31,9 +31,13 @@ they were tuned on:
   metres instead of a whole look-ahead length (the overshoot no longer reaches the middle of the
   leg);
 - the integral (or adaptive) state is frozen while the boat is before the start of its leg
-  (``x_e < 0``: the early switch of turn anticipation).  There the cross-track error is the
-  geometry of the coming turn, not a current, and integrating it winds up a bias that the boat
-  then carries into the leg.
+  (``x_e < 0``: the early switch of turn anticipation), and while its course over ground is more
+  than ``course_gate_rad`` off the leg (:attr:`LosGains.course_gate_rad`: the turn onto the leg,
+  and the way back from its overshoot).  There the cross-track error is the geometry of the turn,
+  not a current, and integrating it winds up a bias that the boat then carries down the leg: the
+  turn onto a leg across a 1.2 m/s current wound ``y_int`` up to 0.86 m, which held the boat 0.3-0.4
+  m up the current of the line for 60 m (``docs/tuning.md``).  A steady offset, what the integral
+  is for, is flown with the course along the leg.
 
 The integral state ``y_int`` or the crab-angle estimate ``beta_hat`` is what makes the boat crab
 into a cross-current instead of settling off the line (ArduPilot issue 19306).  The output is a
@@ -75,10 +79,13 @@ class LosGains:
     """ALOS adaptation gain gamma (rad/(m s))."""
     beta_max_rad: float = math.radians(30.0)
     """Bound on the integral/adaptive crab correction (projection)."""
+    course_gate_rad: float = math.radians(10.0)
+    """The integral/adaptive state is frozen while the course over ground is more than this off the
+    leg (module docstring; only when :meth:`LosFollower.update` is given the course)."""
 
     def __post_init__(self) -> None:
         if not (self.lookahead_m > 0.0 and self.lookahead_min_m > 0.0 and self.lookahead_gamma_per_m2 >= 0.0
-                and self.ki >= 0.0 and self.kappa > 0.0 and self.gamma >= 0.0):
+                and self.ki >= 0.0 and self.kappa > 0.0 and self.gamma >= 0.0 and self.course_gate_rad > 0.0):
             raise ValueError(f"invalid LOS gains {self}")
 
 
@@ -154,8 +161,11 @@ class LosFollower:
     def leg(self) -> tuple[tuple[float, float], tuple[float, float]] | None:
         return self._leg
 
-    def update(self, pos_ne: tuple[float, float], speed_mps: float, dt_s: float) -> LosOutput:
-        """One guidance step; ``speed_mps`` is the speed over ground (for the course rate)."""
+    def update(self, pos_ne: tuple[float, float], speed_mps: float, dt_s: float,
+               course_rad: float | None = None) -> LosOutput:
+        """One guidance step; ``speed_mps`` is the speed over ground (for the course rate);
+        ``course_rad``, the course over ground, freezes the integral while it is more than
+        ``course_gate_rad`` off the leg (module docstring; ``None``: never)."""
         if self._leg is None:
             raise RuntimeError("LosFollower.update before set_leg")
         g = self.gains
@@ -166,8 +176,10 @@ class LosFollower:
         # that slope peaks near |y_e| = 1 m, where it would turn wave-driven cross-track motion into
         # turn-rate demand (measured: corner overshoot grows on the square benchmark).
         slope = 1.0 / delta
-        # before the leg starts (turn anticipation) the error is the corner, not a current
-        adapt = err.along_m >= 0.0
+        # before the leg starts (turn anticipation), and while the boat turns onto the leg or back
+        # from overshooting it, the error is the turn, not a current
+        adapt = err.along_m >= 0.0 and (
+            course_rad is None or abs(wrap_pi(course_rad - err.path_angle_rad)) <= g.course_gate_rad)
         if self.los_type is LosType.ILOS:
             arg = y_e / delta + g.ki * self.y_int_m
             correction = math.atan(arg)

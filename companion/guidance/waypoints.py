@@ -309,7 +309,7 @@ class LegNavigator:
         points along the new leg, so it does not accelerate out of the turn; ``current_ne_mps``
         (estimated current) plans the corner on the water-relative path."""
         c = self.cfg
-        out = self.los.update(pos_ne, speed_mps, dt_s)
+        out = self.los.update(pos_ne, speed_mps, dt_s, course_rad)
         err = out.errors
         remaining = err.remaining_m
         v_corner, lead = self._corner()

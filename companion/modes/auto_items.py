@@ -40,6 +40,7 @@ from companion.modes.navigation import (
     StationTask,
     Task,
     estimator_current,
+    settled_current,
     wp_speed_mps,
 )
 from companion.modes.orbit_join import LEAVING_ORBIT_TEXT, OrbitJoin
@@ -189,7 +190,8 @@ class NavItem(ItemTask):
         carried = run.task.follower if isinstance(run.task, GotoTask) else None  # last leg's crab estimate
         run.task = GotoTask(params, start, target, speed, accept_radius_m, next_point, follower=carried,
                             drift=run.drift, water_current=estimator_current(run.host),
-                            arrive_short_m=CIRCLE_TAKEOVER_M if self.circles else 0.0)
+                            arrive_short_m=CIRCLE_TAKEOVER_M if self.circles else 0.0,
+                            settled=settled_current(run.host))
         run.phase = Phase.GOTO
 
     def step(self, nav: NavState) -> bool:

@@ -76,14 +76,21 @@ def crabbed(target: ControlTarget, nav: NavState, drift: CurrentObserver | None)
                    is_heading=True)
 
 
-def with_steady_crab(target: ControlTarget, nav: NavState, drift: CurrentObserver | None) -> ControlTarget:
+def with_steady_crab(target: ControlTarget, nav: NavState, drift: CurrentObserver | None,
+                     settled: Callable[[], tuple[float, float] | None] | None = None) -> ControlTarget:
     """``target`` with the crab that holds its course in steady running through the observer's
     current (``steady_crab_rad``: the controllers keep the measured crab they remove near it, so a
     turn's sideslip does not swing the bow past the next leg).  ``drift``: the observer once it has
-    converged, else ``None`` (then, and for a heading target, ``target`` unchanged)."""
-    if drift is None or target.is_heading:
+    converged, else ``None``; then the estimator's current once it has settled (``settled``,
+    :func:`settled_current`): the square's first corners from rest come before the observer has
+    converged, and the turn's whole sideslip, removed as crab, swung the bow 4 deg past the second
+    leg and the boat 0.45-0.49 m off it 10 m on in calm water (``docs/tuning.md``).  Neither, or a
+    heading target: ``target`` unchanged."""
+    if target.is_heading:
         return target
-    c = drift.current_ne_mps
+    c = drift.current_ne_mps if drift is not None else settled() if settled is not None else None
+    if c is None:
+        return target
     crab_rad = steady_crab_rad(target.course_rad, _crab_water_speed_mps(nav, c), c)
     return replace(target, steady_crab_rad=crab_rad)
 
@@ -109,6 +116,23 @@ def estimator_current(host: ModeHost) -> Callable[[], tuple[float, float] | None
     return latest
 
 
+SETTLED_CURRENT_VAR_M2PS2 = 0.01
+"""The estimator's current stands in for guidance's observer in a corner's steady crab
+(:meth:`GotoTask.step`) once the variance of each of its components is below this (0.1 m/s)."""
+
+
+def settled_current(host: ModeHost) -> Callable[[], tuple[float, float] | None]:
+    """The host's fresh water-current estimate (north, east m/s) once its uncertainty is below
+    :data:`SETTLED_CURRENT_VAR_M2PS2`, whether or not the current stands out of it (slack water is
+    a settled estimate too), else ``None``."""
+    def latest() -> tuple[float, float] | None:
+        est = host.water_current
+        if est is None or max(est.north_var_m2ps2, est.east_var_m2ps2) >= SETTLED_CURRENT_VAR_M2PS2:
+            return None
+        return (est.north_mps, est.east_mps)
+    return latest
+
+
 class GotoTask:
     """Follow the leg from ``start`` to ``end`` (lat, lon) at ``speed_mps``."""
 
@@ -117,7 +141,8 @@ class GotoTask:
                  next_point: tuple[float, float] | None = None, follower: LosFollower | None = None,
                  drift: CurrentObserver | None = None,
                  water_current: Callable[[], tuple[float, float] | None] | None = None,
-                 arrive_short_m: float = 0.0) -> None:
+                 arrive_short_m: float = 0.0,
+                 settled: Callable[[], tuple[float, float] | None] | None = None) -> None:
         """``follower``: the previous leg's LOS follower, so the crab (integral/adaptive) estimate
         of the current carries over a corner (scaled by the cosine of the turn) instead of being
         learnt again on every leg; a new one when None.  ``drift``: the vehicle's current
@@ -126,10 +151,13 @@ class GotoTask:
         ``accept_radius_m``: the item's own radius (> 0) also caps the corner's anticipation
         (:attr:`~companion.guidance.waypoints.LegConfig.corner_cut_max_m`); else ``WP_RADIUS``.
         ``arrive_short_m``: without a next point, the boat is down to the corner speed this far
-        short of ``end`` (:attr:`~companion.guidance.waypoints.LegConfig.arrive_short_m`)."""
+        short of ``end`` (:attr:`~companion.guidance.waypoints.LegConfig.arrive_short_m`).
+        ``settled``: the estimator's current once settled (:func:`settled_current`), for a leg from
+        a corner's steady crab before ``drift`` has converged."""
         self.params = params
         self.drift = drift
         self.water_current = water_current
+        self.settled = settled
         self.frame = LocalFrame(*start)
         self.end = end
         own_radius = accept_radius_m if accept_radius_m is not None and accept_radius_m > 0 else None
@@ -233,7 +261,7 @@ class GotoTask:
         self.reached = self.reached or st.reached
         target = crabbed(st.target, nav, crab_feed_forward(self.params, self.drift))
         if self.from_corner:
-            target = with_steady_crab(target, nav, drift)
+            target = with_steady_crab(target, nav, drift, self.settled)
         if int(self.params.get_or("USV_WP_UTURN", 0.0)) == 1:
             target = self._turn_onto_leg(target, nav, st.errors.path_angle_rad)
         return target

@@ -57,24 +57,31 @@ def test_leg_errors_sign_convention() -> None:
 
 
 def _run_los(los: LosFollower, current_ne: tuple[float, float], speed_mps: float = 5.0,
-             duration_s: float = 120.0) -> list[float]:
+             duration_s: float = 120.0, give_course: bool = False) -> list[float]:
     """Kinematic boat: heading follows the commanded course with a 0.5 s lag (no crab
-    compensation), velocity over ground = through-water velocity + current."""
+    compensation), velocity over ground = through-water velocity + current; ``give_course``: the
+    follower gets the course over ground (its integral's course gate)."""
     los.set_leg((0.0, 0.0), (10_000.0, 0.0))
     x, y, psi, dt = 0.0, 5.0, 0.0, 0.05
+    course = None
     cross = []
     for _ in range(int(duration_s / dt)):
-        out = los.update((x, y), speed_mps, dt)
+        out = los.update((x, y), speed_mps, dt, course)
         psi += wrap_pi(out.course_rad - psi) * dt / 0.5
-        x += (speed_mps * math.cos(psi) + current_ne[0]) * dt
-        y += (speed_mps * math.sin(psi) + current_ne[1]) * dt
+        vx, vy = speed_mps * math.cos(psi) + current_ne[0], speed_mps * math.sin(psi) + current_ne[1]
+        x, y = x + vx * dt, y + vy * dt
+        course = math.atan2(vy, vx) if give_course else None
         cross.append(out.errors.cross_m)
     return cross
 
 
+@pytest.mark.parametrize("give_course", [False, True])
 @pytest.mark.parametrize("los_type", [LosType.ILOS, LosType.ALOS])
-def test_integral_and_adaptive_los_crab_into_cross_current(los_type: LosType) -> None:
-    cross = _run_los(LosFollower(LosGains(lookahead_m=8.0, ki=0.05, gamma=0.01), los_type), (0.0, 0.5))
+def test_integral_and_adaptive_los_crab_into_cross_current(los_type: LosType, give_course: bool) -> None:
+    """With the course over ground given, the integral's course gate still lets it take out the
+    steady offset: that offset is flown with the course along the leg."""
+    cross = _run_los(LosFollower(LosGains(lookahead_m=8.0, ki=0.05, gamma=0.01), los_type), (0.0, 0.5),
+                     give_course=give_course)
     assert max(abs(c) for c in cross[-200:]) < 0.05
 
 
@@ -119,6 +126,22 @@ def test_integral_state_does_not_wind_up_before_the_leg_starts(los_type: LosType
         los.update((-3.0, 4.0), 2.0, 0.01)
     assert los.y_int_m == 0.0 and los.beta_hat_rad == 0.0
     los.update((1.0, 4.0), 2.0, 0.01)  # on the leg: integrates again
+    assert los.y_int_m != 0.0 or los.beta_hat_rad != 0.0
+
+
+@pytest.mark.parametrize("los_type", [LosType.ILOS, LosType.ALOS])
+def test_the_turn_onto_a_leg_winds_up_no_integral(los_type: LosType) -> None:
+    """After a corner the boat is metres beside the new leg, its course still swinging round onto
+    it (or back from overshooting it): that error is the turn, and an integral wound up on it held
+    the boat 0.3-0.4 m off the line for 60 m of the next leg.  With the course along the leg the
+    integral runs."""
+    los = LosFollower(LosGains(lookahead_m=8.0, ki=0.05, gamma=0.01), los_type)
+    los.set_leg((0.0, 0.0), (100.0, 0.0))
+    turning = math.radians(-40.0)  # 40 deg off the leg, heading for it
+    for k in range(300):
+        los.update((1.0 + 0.02 * k, 4.0 - 0.01 * k), 2.0, 0.01, turning)
+    assert los.y_int_m == 0.0 and los.beta_hat_rad == 0.0
+    los.update((7.0, 1.0), 2.0, 0.01, math.radians(5.0))
     assert los.y_int_m != 0.0 or los.beta_hat_rad != 0.0
 
 

@@ -11,7 +11,14 @@ import pytest
 from hypothesis import example, given
 from hypothesis import strategies as st
 
-from companion.guidance.current import MAX_CRAB_SIN, CurrentObserver, crab_heading, water_speed_mps
+from companion.control.target import ControlTarget
+from companion.guidance.current import (
+    MAX_CRAB_SIN,
+    CurrentObserver,
+    crab_heading,
+    steady_crab_rad,
+    water_speed_mps,
+)
 from companion.guidance.geo import LocalFrame, distance_to_segment_m, wrap_pi
 from companion.guidance.sidestep import sidestep_point
 from companion.guidance.stem import stem_route
@@ -22,9 +29,9 @@ from companion.guidance.waypoints import (
     u_turn_sign,
     water_corner_lead_m,
 )
-from companion.messages import NavState
+from companion.messages import CurrentEstimate, NavState
 from companion.modes.circle_item import CircleTask, circling_clockwise
-from companion.modes.navigation import GotoTask
+from companion.modes.navigation import GotoTask, settled_current, with_steady_crab
 from companion.modes.station_trials import StationTrials
 from companion.param_table import all_param_defs
 from companion.params import ParamStore
@@ -865,3 +872,27 @@ def test_hold_not_yet_reached_is_planned_again_when_its_current_turns() -> None:
         reading[0] = turned
         again.step(_nav(frame, -13.0, -3.0, 3.0, 0.0), 0.1)
         assert again.stem is kept, why
+
+
+class _Host:
+    def __init__(self, estimate: CurrentEstimate | None) -> None:
+        self.water_current = estimate
+
+
+def test_a_leg_from_a_corner_takes_its_steady_crab_from_a_settled_estimate_before_the_observer() -> None:
+    """The square's first corners from rest come before guidance's observer has converged; the
+    estimator's current stands in once its uncertainty has settled (slack water included, where the
+    current does not stand out of it), so the turn's sideslip is not removed in full as crab (the bow
+    swung 4 deg past the second leg, 0.45-0.49 m off it 10 m on, in calm water)."""
+    nav = _nav(LocalFrame(41.77, 123.43), 0.0, 0.0, 3.0, 0.0)
+    target = ControlTarget(course_rad=0.0, speed_mps=3.0)
+    east = CurrentEstimate.from_components(0.0, 0.0, 0.5, 0.004, 0.004, 0.9)
+    crabbed = with_steady_crab(target, nav, None, settled_current(_Host(east)))  # type: ignore[arg-type]
+    expected = steady_crab_rad(0.0, max(water_speed_mps(3.0, 0.0, (0.0, 0.5)), 1.0), (0.0, 0.5))
+    assert crabbed.steady_crab_rad == pytest.approx(expected) and expected > 0.1  # the bow west of the course
+    slack = CurrentEstimate.from_components(0.0, 0.02, 0.0, 0.001, 0.001, 0.0)  # settled, not confident
+    slack_crab = with_steady_crab(target, nav, None, settled_current(_Host(slack)))  # type: ignore[arg-type]
+    assert slack_crab.steady_crab_rad is not None
+    unsettled = CurrentEstimate.from_components(0.0, 0.0, 0.5, 0.05, 0.05, 0.9)
+    assert with_steady_crab(target, nav, None, settled_current(_Host(unsettled))) == target  # type: ignore[arg-type]
+    assert with_steady_crab(target, nav, None, settled_current(_Host(None))) == target  # type: ignore[arg-type]

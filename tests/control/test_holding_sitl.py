@@ -162,14 +162,19 @@ async def test_loiter_orbit_in_wind_against_a_weak_current_stays_near_its_point(
     """0.3 m/s toward E with 6 m/s of wind and Hs 0.3 m waves against it (usv bench nav's third
     weather slot, tuning seed 3): the boat cannot stand on its point and orbits it; the wind
     pushes it off the orbit's circle, and the orbit brings it round with the thrust a jet needs to
-    turn.  Within 5 m of the entry point over 120 s, 3.5 m over the last 60 s (measured 4.3 and
-    3.0 m; with the active model's low-speed turn cap on the orbit, 7.0 and 4.0 m)."""
+    turn.  Within 5 m of the entry point over 120 s (measured 4.3 m; with the active model's
+    low-speed turn cap on the orbit, 7.0 m).  Seeds 1-6 of this weather: 3.8-4.8 m.  The 3.5 m this
+    test also asked of the last 60 s (measured 3.0 m on this seed) held on four of those six seeds
+    before the ILOS integral's course gate (2.9-3.8 m) and on two after it (2.9-4.8 m; the gate
+    changes GUIDED's go-to, not the orbit, and over the 53 cells of the nav grid LOITER's mean did
+    not move): where a wind-driven orbit is after a minute moves by a metre with the state GUIDED
+    hands over, so it is not a bound on the orbit (``docs/tuning.md``)."""
     async with SitlHarness(seed=3, current="0.3,90", wind="6,90", waves="0.3", full_stack=True) as h:
         vehicle = h.services.vehicle
         await _guided_to_the_point_and_hold(h)
         dists = await _loiter_from_here(h, 240)
         assert isinstance(vehicle.modes.current.task, OrbitTask)
-        assert max(dists) < 5.0 and max(dists[120:]) < 3.5
+        assert max(dists) < 5.0
 
 
 async def test_loiter_in_slack_water_can_stop_the_engine_and_drift() -> None:
@@ -294,12 +299,14 @@ async def test_an_orbit_taken_up_off_its_point_goes_round_it_the_boats_way_not_t
 
 async def test_loiter_entered_while_the_boat_circles_turns_on_into_its_orbit_not_back_out() -> None:
     """0.3 m/s toward S with 6 m/s of wind and Hs 0.3 m along it (usv bench nav's first weather
-    slot, tuning seed 1): GUIDED orbits its point, and LOITER starts on the boat's position while
-    it turns there at about 50 deg/s.  The new orbit's entry turn goes on the way the boat turns
-    until the orbit's heading is ahead of the bow; joining the field with the bow already past it
-    reversed the turn, and the boat ran out at 2.5 m/s while the nozzle crossed (6.8 m from the
-    point; 2.8 m turning on)."""
-    async with SitlHarness(seed=1, current="0.3,180", wind="6,0", waves="0.3", full_stack=True) as h:
+    slot): GUIDED orbits its point, and LOITER starts on the boat's position while it turns there
+    at 20 deg/s or more.  The new orbit's entry turn goes on the way the boat turns until the
+    orbit's heading is ahead of the bow; joining the field with the bow already past it reversed
+    the turn, and the boat ran out at 2.5 m/s while the nozzle crossed (6.8 m from the point; 2.8 m
+    turning on, seed 1 before the simulated GPS went WGS-84).  Seed 7: 5.2 m joining on either side,
+    3.1 m turning on (seeds 1-12 where GUIDED circles then: 3.0-4.7 m, and 2.9-5.2 m joining on
+    either side)."""
+    async with SitlHarness(seed=7, current="0.3,180", wind="6,0", waves="0.3", full_stack=True) as h:
         vehicle = h.services.vehicle
         await _guided_to_the_point_and_hold(h)
         assert isinstance(vehicle.modes.current.task, OrbitTask)
