@@ -97,10 +97,8 @@ class _Flight:
         self.frame = LocalFrame(home.lat_deg, home.lon_deg)
 
     def here(self) -> tuple[float, float]:
-        """The truth position through the simulated GPS's geodesy and the companion's frame, as
-        :class:`benchmarks.nav_metrics.Truth` reads the truth log: the simulator's metres are on a
-        sphere, the frame on WGS-84, and the two disagree by 0.15-0.23 % (0.1 m at 50 m), as much as
-        a leg's cross-track target."""
+        """The truth position as :class:`benchmarks.nav_metrics.Truth` reads the truth log: the
+        simulated GPS's degrees (no noise) in the companion's frame at home."""
         s = self.h.plant.state
         return self.frame.to_ne(*self.h.boat.gpsins.lat_lon(s.north_m, s.east_m))
 

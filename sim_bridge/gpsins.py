@@ -132,9 +132,9 @@ class GpsInsModel:
 
     def lat_lon(self, north_m: float, east_m: float) -> tuple[float, float]:
         """WGS-84 degrees of a position in metres north/east of home (no noise), on the tangent plane
-        at home as the companion's :class:`~companion.guidance.geo.LocalFrame` reads them back: a
-        spherical earth (as before) put a point 50 m off 0.1 m from where the companion and the
-        benches placed it, as much as a leg's cross-track target."""
+        at home, so the companion's :class:`~companion.guidance.geo.LocalFrame` reads the same metres
+        back (a receiver reports WGS-84; a sphere put a point 50 m off 0.1 m away, as much as a leg's
+        cross-track target)."""
         return self._frame.to_lat_lon(north_m, east_m)
 
     def due(self, step_index: int, step_s: float) -> bool:
