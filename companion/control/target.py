@@ -105,12 +105,13 @@ class CourseSpeedController(Protocol):
     def update(self, nav: NavState, target: ControlTarget, dt_s: float, sat: Saturation) -> ControlOutput: ...
 
 
-STEADY_CRAB_MARGIN_RAD = math.radians(8.0)
+STEADY_CRAB_MARGIN_RAD = math.radians(5.0)
 """How far the removed crab may stray from a target's ``steady_crab_rad``.  In a turn the course over
 ground lags the heading by 20-30 deg (the hull slips sideways through the water); removed in full,
 that slip leads the heading command past the new leg, and the lead outlasts the turn: the bow
 swung 10-15 deg past the leg's crab heading at every corner and the boat landed 0.4-0.6 m inside
-the leg 10 m after it (``docs/tuning.md``)."""
+the leg 10 m after it.  Within the margin the bow still swings past the leg: 8 deg measured best
+before the ILOS integral's course gate, 5 deg after it (``docs/tuning.md``)."""
 
 
 class CrabEstimator:
