@@ -298,7 +298,7 @@ async def test_auto_square_in_calm_water_comes_out_of_every_corner_onto_the_next
     past the next leg: 0.41-0.50 m inside it 10 m on (``STEADY_CRAB_MARGIN_RAD``); the second
     corner comes before guidance's observer has converged, and there the steady crab is the
     estimator's settled current (without it 0.45-0.49 m; with it 0.20-0.23 m with an 8 deg margin,
-    0.11-0.16 m on every leg with 5 deg)."""
+    0.09-0.16 m on legs 2-4 with 5 deg)."""
     async with SitlHarness(seed=seed, current="0,0", wind="0,0", waves="0", full_stack=True) as h:
         corners = [(0.0, 0.0), (50.0, 0.0), (50.0, 50.0), (0.0, 50.0), (0.0, 0.0)]
         legs = await _fly_waypoints(h, corners[1:])
