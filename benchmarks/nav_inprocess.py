@@ -49,7 +49,7 @@ import numpy as np
 
 from benchmarks.nav_flight import ARRIVAL_HOLD_S, GOTO_NE, LOITER_S, PHASE_LIMIT_S, SQUARE_NE, Cell
 from benchmarks.nav_grid import REPORTING_SEEDS, TUNING_SEEDS, full_grid
-from benchmarks.nav_metrics import FIRST_LEG_WINDOW_S, mid_leg_cross_m, path_distance
+from benchmarks.nav_metrics import FIRST_LEG_WINDOW_S, mid_leg_cross_m, path_distance, rms
 from companion.guidance.geo import LocalFrame
 from companion.messages import STATUS_TEXT_TOPIC, GuidedTarget, ModeNumber
 from companion.mission import items as mission_items
@@ -180,7 +180,7 @@ async def fly(cell: Cell, params: dict[str, float] | None = None) -> SequenceFig
             loiter_rms_m=round(math.sqrt(statistics.fmean(d * d for d in dists)), 2), rtl_s=rtl_s,
             rtl_arrival_max_m=_max_from(rtl_hold, (0.0, 0.0)), square_side_max_m=round(float(side.max()), 2),
             square_first_15s_max_m=round(float(first.max()), 2),
-            square_mid_leg_rms_m=round(float(np.sqrt(np.mean(mid ** 2))), 3) if mid.size else math.inf,
+            square_mid_leg_rms_m=round(rms(mid), 3) if mid.size else math.inf,
             square_mid_leg_max_m=round(float(mid.max()), 2) if mid.size else math.inf)
 
 

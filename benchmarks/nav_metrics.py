@@ -76,7 +76,8 @@ class Truth:
         return np.asarray(np.hypot(self.n[idx] - point[0], self.e[idx] - point[1]))
 
 
-def _rms(x: np.ndarray) -> float:
+def rms(x: np.ndarray) -> float:
+    """Root mean square of ``x`` (NaN when empty)."""
     return float(np.sqrt(np.mean(np.square(x)))) if x.size else math.nan
 
 
@@ -127,7 +128,7 @@ def loiter(truth: Truth, t0: float, duration_s: float) -> dict[str, Any]:
     idx = truth.window(t0, t0 + duration_s)
     entry = truth.at(t0)
     d = truth.dist(idx, entry)
-    return {"max_m": _r(d.max()), "rms_m": _r(_rms(d)), "entry_ne": [_r(entry[0]), _r(entry[1])]}
+    return {"max_m": _r(d.max()), "rms_m": _r(rms(d)), "entry_ne": [_r(entry[0]), _r(entry[1])]}
 
 
 def _segment(p: np.ndarray, a: tuple[float, float], b: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
@@ -183,7 +184,7 @@ def square(truth: Truth, t0: float, t1: float, corners: list[tuple[float, float]
     return {"side_max_m": _r(side.max()), "side_max_at_ne": [_r(pts[worst, 0]), _r(pts[worst, 1])],
             "first_15s_max_m": _r(side_distance(t0, t0 + FIRST_LEG_WINDOW_S)[0].max()),
             "join_s": _r(joined - t0), "side_max_after_join_m": _r(side_distance(joined, t1)[0].max()),
-            "mid_leg_rms_m": _r(_rms(mids)), "mid_leg_max_m": _r(mids.max()) if mids.size else math.nan,
+            "mid_leg_rms_m": _r(rms(mids)), "mid_leg_max_m": _r(mids.max()) if mids.size else math.nan,
             "legs_completed": len(reached), "duration_s": _r(t1 - t0)}
 
 
@@ -198,7 +199,7 @@ def sampling(truth: Truth, t0: float, t1: float, points: list[tuple[float, float
         on = np.flatnonzero(d <= radius_m + ON_CIRCLE_MARGIN_M)
         err = np.abs(d[on[0]:] - radius_m) if on.size else np.array([math.inf])
         errors.append(err)
-        items.append({"item": k, "circle_error_max_m": _r(err.max()), "circle_error_rms_m": _r(_rms(err)),
+        items.append({"item": k, "circle_error_max_m": _r(err.max()), "circle_error_rms_m": _r(rms(err)),
                       "duration_s": _r(bounds[k] - bounds[k - 1])})
     step_s = float(np.median(np.diff(truth.t)))
     samples: list[dict[str, Any]] = []
@@ -214,7 +215,7 @@ def sampling(truth: Truth, t0: float, t1: float, points: list[tuple[float, float
                         "distance_at_end_m": _r(d[-1]), "pump_s": _r(rows.size * step_s)})
     all_err = np.concatenate(errors)
     return {"radius_m": radius_m, "circle_error_max_m": _r(all_err.max()),
-            "circle_error_rms_m": _r(_rms(all_err[np.isfinite(all_err)])),
+            "circle_error_rms_m": _r(rms(all_err[np.isfinite(all_err)])),
             "sample_distance_max_m": max((s["distance_at_end_m"] for s in samples), default=math.inf),
             "fill_distance_max_m": max((s["distance_max_m"] for s in samples), default=math.inf),
             "samples_taken": len(samples), "items": items, "samples": samples,
@@ -230,7 +231,7 @@ def telemetry_vs_truth(truth: Truth, positions: list[list[float]], home: tuple[f
     arr = np.array([(t, *frame.to_ne(la, lo)) for t, la, lo in positions])
     n = np.interp(arr[:, 0], truth.t, truth.n)
     e = np.interp(arr[:, 0], truth.t, truth.e)
-    return _r(_rms(np.hypot(arr[:, 1] - n, arr[:, 2] - e)))
+    return _r(rms(np.hypot(arr[:, 1] - n, arr[:, 2] - e)))
 
 
 def figures(flight: dict[str, Any]) -> dict[str, Any]:

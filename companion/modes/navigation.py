@@ -122,7 +122,7 @@ SETTLED_CURRENT_VAR_M2PS2 = 0.01
 
 
 def settled_current(host: ModeHost) -> Callable[[], tuple[float, float] | None]:
-    """The host's fresh water-current estimate (north, east m/s) once its uncertainty is below
+    """The host's latest water-current estimate (north, east m/s) once its uncertainty is below
     :data:`SETTLED_CURRENT_VAR_M2PS2`, whether or not the current stands out of it (slack water is
     a settled estimate too), else ``None``."""
     def latest() -> tuple[float, float] | None:
