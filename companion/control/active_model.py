@@ -54,6 +54,14 @@ zero every wave's yaw put the nozzle at its stop and the yaw priority held the t
 so the boat reached its point at 2.5 m/s.  Slowing down for a corner keeps the full priority: the
 turn that follows needs it.
 
+A U-turn onto a leg (``ControlTarget.u_turn``) gets the full yaw priority at any speed, and the
+heading loop asks for up to ``u_turn_rate_max_radps`` instead of ``turn_rate_max_radps``.  At full
+nozzle the jet's turning circle hardly changes with thrust (about 1.2-1.5 m in the simulator from
+idle to full throttle), but a turn at the capped thrust is slow: a boat that left station keeping
+bow into a 1.2 m/s current at 1.2 m/s through the water kept that speed and turned at 20-35 deg/s,
+on a circle 2.5-4.5 m wide, and swung 3.5 m past its leg.  More thrust turns it round before it
+has gone far (``docs/tuning.md``).
+
 Water-relative model (issue 14).  When the UKF estimates the current with the model error (the
 current-augmented filter, ``models.ukf = "current"``), its delta_nu is the error of the model run
 on the velocity through the water, and so is this law's model: Eq. 3-4 are evaluated on
@@ -308,7 +316,7 @@ class ActiveModelController:
         self.crab.update(nav, dt_s)
         psi_d = self.crab.heading_command(target)
         e_psi = wrap_pi(psi_d - nav.heading_rad)
-        r_d = desired_turn_rate(c.heading, e_psi, target.course_rate_radps, nav.u_mps)
+        r_d = desired_turn_rate(c.heading, e_psi, target.course_rate_radps, nav.u_mps, target.u_turn)
         model_current = self._model_current_ne()
         u_c, v_c = current_body_mps(nav.heading_rad, model_current)
         u_water = nav.u_mps - u_c
@@ -324,7 +332,9 @@ class ActiveModelController:
         w_cos = self.speed_law.thrust_demand(nav, target.speed_mps, self.dnu_u_raw, dt_s, float(f[0]))
         slow_over_ground = target.speed_mps < c.turn_boost_speed_mps
         stopping = target.stopping and nav.u_mps > target.speed_mps + c.speed.brake_deadband_mps
-        if (slow_over_ground or stopping
+        if target.u_turn:
+            delta, thrust = self._allocate(w_sin, w_cos)
+        elif (slow_over_ground or stopping
                 or self._commanded_water_speed_mps(nav, target, current) < c.turn_boost_speed_mps):
             delta, thrust = self._allocate_near_standstill(w_sin, w_cos, nav, target, e_psi, r_d, u_water,
                                                            capped=slow_over_ground and not target.circling)

@@ -34,6 +34,10 @@ PARAMS: tuple[ParamDef, ...] = (
     ParamDef("USV_HDG_P", 2.0, 0.1, 5.0, "1/s",
              "Heading loop: desired turn rate per radian of heading error."),
     ParamDef("USV_TURN_MAX", 45.0, 5.0, 120.0, "deg/s", "Largest turn rate the heading loop asks for."),
+    ParamDef("USV_UTURN_RATE", 60.0, 5.0, 180.0, "deg/s",
+             "Largest turn rate the heading loop asks for in a U-turn onto a leg (USV_WP_UTURN), in place of "
+             "USV_TURN_MAX; the active model then gives the yaw row all the thrust it asks for, so the jet "
+             "turns on its smallest circle instead of drifting wide at the slow turn's low thrust."),
     ParamDef("USV_CRAB_TC", 0.3, 0.0, 10.0, "s",
              "Time constant of the crab-angle (course minus heading) filter used to steer a course."),
     ParamDef("USV_RATE_FF", 0.8, 0.0, 5.0, "rad/(rad/s)", "PID: nozzle angle per turn rate (feed-forward)."),
@@ -81,6 +85,7 @@ class ParamReader(Protocol):
 def heading_config(p: ParamReader) -> HeadingLoopConfig:
     return HeadingLoopConfig(heading_p_per_s=p.get("USV_HDG_P"),
                              turn_rate_max_radps=math.radians(p.get("USV_TURN_MAX")),
+                             u_turn_rate_max_radps=math.radians(p.get("USV_UTURN_RATE")),
                              crab_tau_s=p.get("USV_CRAB_TC"), speed_ref_mps=p.get("USV_STR_SREF"))
 
 

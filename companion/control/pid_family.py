@@ -28,16 +28,20 @@ class HeadingLoopConfig:
     heading_p_per_s: float = 2.0
     """Desired turn rate per radian of heading error (1/s) at ``speed_ref_mps``."""
     turn_rate_max_radps: float = math.radians(45.0)
+    u_turn_rate_max_radps: float = math.radians(60.0)
+    """Largest turn rate in a U-turn onto a leg (:attr:`ControlTarget.u_turn`)."""
     crab_tau_s: float = 0.3
     speed_ref_mps: float = 5.0
     """Below this speed the heading gain shrinks with sqrt(U / speed_ref) (less yaw authority)."""
 
 
 def desired_turn_rate(cfg: HeadingLoopConfig, heading_err_rad: float, ff_radps: float,
-                      u_mps: float) -> float:
-    """``r_d = sat(k_psi(U) * e_psi, r_max) + r_ff`` (the guidance rate is added after saturation)."""
+                      u_mps: float, u_turn: bool = False) -> float:
+    """``r_d = sat(k_psi(U) * e_psi, r_max) + r_ff`` (the guidance rate is added after saturation);
+    ``r_max`` is ``u_turn_rate_max_radps`` in a ``u_turn``, else ``turn_rate_max_radps``."""
     k = cfg.heading_p_per_s * min(1.0, max(0.4, math.sqrt(max(u_mps, 0.0) / cfg.speed_ref_mps)))
-    r = max(-cfg.turn_rate_max_radps, min(cfg.turn_rate_max_radps, k * heading_err_rad))
+    r_max = cfg.u_turn_rate_max_radps if u_turn else cfg.turn_rate_max_radps
+    r = max(-r_max, min(r_max, k * heading_err_rad))
     return r + ff_radps
 
 
@@ -87,7 +91,7 @@ class PidController:
         self.crab.update(nav, dt_s)
         psi_d = self.crab.heading_command(target)
         e_psi = wrap_pi(psi_d - nav.heading_rad)
-        r_d = desired_turn_rate(c.heading, e_psi, target.course_rate_radps, nav.u_mps)
+        r_d = desired_turn_rate(c.heading, e_psi, target.course_rate_radps, nav.u_mps, target.u_turn)
         u = max(nav.u_mps, 0.5)
         # the jet's yaw authority per nozzle angle grows about with the square root of speed
         scale = min(2.5, max(0.5, math.sqrt(c.speed_ref_mps / u)))

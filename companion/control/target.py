@@ -56,6 +56,11 @@ class ControlTarget:
     """The target follows a straight leg (line of sight, :mod:`companion.guidance.waypoints`): the
     active-model law takes the fast part of the current's yaw coupling out of its over-ground model
     there (``coupling_tau_s``, :mod:`companion.control.active_model`)."""
+    u_turn: bool = False
+    """The target turns the boat onto a leg it points more than 135 deg away from, slowly
+    (:meth:`companion.modes.navigation.GotoTask.step`): the heading loop may ask for
+    ``USV_UTURN_RATE`` and the active model gives the turn all the thrust it asks for, so the jet
+    turns on its smallest circle (:mod:`companion.control.active_model`)."""
     steady_crab_rad: float | None = None
     """The crab angle (course over ground less heading) that holds ``course_rad`` in steady running
     through the current guidance has observed (:func:`companion.guidance.current.steady_crab_rad`),

@@ -27,10 +27,11 @@ from companion.guidance.holding import CurrentStationGains, CurrentStationKeeper
 
 Point = tuple[float, float]
 
-SIDESTEP_DONE_M = 0.3
+SIDESTEP_DONE_M = 0.8
 """The side step is done when the boat has moved to within this of the offset sideways (how far
 the current carries it along the leg meanwhile does not matter: the leg runs down the current) ...
-"""
+The boat goes on moving sideways while its bow straightens up the current: with 0.3 m it ended up
+to 1.1 m past the offset, and the turn ran from 3.2 m beside the line (``docs/tuning.md``)."""
 SIDESTEP_BOW_RAD = math.radians(15.0)
 """... and, there, the bow is back within this of upstream (the keeper angles it to ferry the boat
 aside, away from the turn: a turn started from there is that much longer, and in 1.2 m/s with

@@ -192,10 +192,11 @@ class GotoTask:
 
     def _turn_onto_leg(self, target: ControlTarget, nav: NavState, leg_rad: float) -> ControlTarget:
         """A U-turn onto the leg (heading error beyond 135 deg) runs at ``USV_WP_UTURN_SPD`` through
-        the water (:func:`~companion.guidance.waypoints.pivot_speed_mps`) until the boat points within
-        45 deg; with a corner to come it goes the way :func:`~companion.guidance.waypoints.u_turn_sign`
-        picks (toward the inside of the route), kept until the boat points within 90 deg (the last
-        leg of a route, GUIDED's and RTL's, has no inside: the heading loop picks the way)."""
+        the water (:func:`~companion.guidance.waypoints.pivot_speed_mps`) and turns as fast as
+        ``USV_UTURN_RATE`` (``ControlTarget.u_turn``) until the boat points within 45 deg; with a
+        corner to come it goes the way :func:`~companion.guidance.waypoints.u_turn_sign` picks
+        (toward the inside of the route), kept until the boat points within 90 deg (the last leg of
+        a route, GUIDED's and RTL's, has no inside: the heading loop picks the way)."""
         inside = self.nav.inside_sign
         err_rad = wrap_pi(target.course_rad - nav.heading_rad)
         heading = self._u_turn.heading(
@@ -208,7 +209,7 @@ class GotoTask:
         if self.pivoting:
             current = self.water_current() if self.water_current is not None else None
             speed = pivot_speed_mps(self.params.get("USV_WP_UTURN_SPD"), nav.heading_rad, current)
-            target = replace(target, speed_mps=min(target.speed_mps, speed),
+            target = replace(target, speed_mps=min(target.speed_mps, speed), u_turn=True,
                              current_along_mps=current_along_mps(nav.heading_rad, current))
         if heading is None:
             return target

@@ -137,6 +137,36 @@ def test_a_heading_wobble_down_a_current_does_not_rev_the_jet_but_a_turn_keeps_i
     assert slow_turn.throttle < u_turn                           # slow over ground: capped
 
 
+def test_a_u_turn_onto_a_leg_turns_with_all_the_thrust_it_asks_for_and_faster() -> None:
+    """A U-turn onto a leg (``ControlTarget.u_turn``) started from station keeping bow into a current:
+    commanded 0 over ground, 1.2 m/s through the water.  An ordinary turn there is a slow boat's:
+    capped at ``turn_throttle_max`` and asking at most ``turn_rate_max_radps``; the U-turn gets all
+    the thrust its yaw row asks for, toward ``u_turn_rate_max_radps`` (at the cap the jet turned at
+    20-35 deg/s on a circle 2.5-4.5 m wide and swung 3.5 m past its leg in a 1.2 m/s current)."""
+    cfg = ActiveModelConfig()
+    half_turn = math.radians(150.0)
+    assert desired_turn_rate(cfg.heading, half_turn, 0.0, 1.2) == pytest.approx(
+        cfg.heading.turn_rate_max_radps)
+    assert desired_turn_rate(cfg.heading, half_turn, 0.0, 1.2, u_turn=True) == pytest.approx(
+        cfg.heading.u_turn_rate_max_radps)
+    assert cfg.heading.u_turn_rate_max_radps > cfg.heading.turn_rate_max_radps
+    model = toy_model()
+    nav = nav_from(0.0, 0, 0, 0.0, np.array([1.2, 0.0, 0.0]))
+
+    def output(u_turn: bool) -> tuple[float, float]:
+        ctl = ActiveModelController(model, cfg, delta_nu=lambda: (0.0, 0.0, 0.0))
+        target = ControlTarget(half_turn, 0.0, is_heading=True, u_turn=u_turn)
+        out = ctl.update(nav, target, 0.01, NO_SATURATION)
+        return out.throttle, out.nozzle_rad
+
+    turn_throttle, turn_nozzle = output(False)
+    u_turn_throttle, u_turn_nozzle = output(True)
+    assert turn_throttle == pytest.approx(cfg.turn_throttle_max, abs=1e-6)
+    assert u_turn_throttle > turn_throttle + 0.2
+    assert turn_nozzle == pytest.approx(cfg.nozzle_max_rad)
+    assert u_turn_nozzle == pytest.approx(cfg.nozzle_max_rad)
+
+
 def test_a_heading_wobble_while_slowing_down_to_stop_does_not_rev_the_jet() -> None:
     """Slowing down at the end of the last leg (GUIDED, RTL: ``ControlTarget.stopping``) from 3 m/s
     to 2.2, a heading wobble that saturates the nozzle gets the turn-scaled thrust of a slow boat:
