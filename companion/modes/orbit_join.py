@@ -13,7 +13,8 @@ boat is::
                                             chi:  course over ground, lam: +1 clockwise orbit
     to_go_w = lam * wrap(beta - chi_w)      chi_w: course through the water (the velocity over
                                                    ground less the estimated current)
-    join when  0 <= to_go <= USV_WP_JOIN and 0 <= to_go_w <= USV_WP_JOIN
+    to_go_b = lam * wrap(beta - psi)        psi: heading
+    join when  to_go, to_go_w and to_go_b all lie in [0, USV_WP_JOIN]
                                             or the bow has turned a full orbit
                                             or MAX_WAIT_S have passed
 
@@ -24,7 +25,11 @@ along it while the bow is still across: the leg then finished the turn at speed,
 line), through the water with the current against it (2.3 m); both must agree.  And only while the
 boat still turns toward the leg: joined just past it (up to 20 deg, as before) the leg had to
 reverse the orbit's turn and swung 4.5-7.9 m off; it now keeps the orbit round once more
-(``docs/tuning.md``, "Leaving the hold orbit: course over ground and through the water").  The
+(``docs/tuning.md``, "Leaving the hold orbit: course over ground and through the water").  Nor
+may the bow be past the leg: on the orbit it leads the course by the hull's slip (25 deg at 1.8 m/s
+through the water), so a course still short of the leg came with the bow past it; the leg then
+reversed a 50 deg/s turn, and in 0.3 m/s with 6 m/s of wind the boat swung 4.4 m off its first leg
+(2.2 m waiting for the bow; ``docs/tuning.md``).  The
 leg's LOS finishes the turn the same way; with the default 70 deg the boat leaves before the
 orbit's far side, 1.9-2.3 m from the point in a 0.5 m/s current, and
 after at most one orbit (about 12 s at ``USV_HOLD_ORB_SPD`` 1 m/s on ``USV_TURN_RAD`` 2 m) it
@@ -97,9 +102,15 @@ class OrbitJoin:
     def to_go_rad(self, nav: NavState, current_ne_mps: tuple[float, float] = (0.0, 0.0)) -> float:
         """The turn (rad, the orbit's way) from the course (over ground; through the water with
         the current ``current_ne_mps``) to the bearing of the leg's end."""
+        return turn_to_go_rad(self.lam, course_rad(nav, current_ne_mps), self._bearing_rad(nav))
+
+    def bow_to_go_rad(self, nav: NavState) -> float:
+        """The turn (rad, the orbit's way) from the heading to the bearing of the leg's end."""
+        return turn_to_go_rad(self.lam, nav.heading_rad, self._bearing_rad(nav))
+
+    def _bearing_rad(self, nav: NavState) -> float:
         here = self.frame.to_ne(nav.lat_deg, nav.lon_deg)
-        bearing = distance_bearing(self.end_ne[0] - here[0], self.end_ne[1] - here[1])[1]
-        return turn_to_go_rad(self.lam, course_rad(nav, current_ne_mps), bearing)
+        return distance_bearing(self.end_ne[0] - here[0], self.end_ne[1] - here[1])[1]
 
     def aligned(self, nav: NavState) -> bool:
         """Whether to leave the orbit now (module docstring)."""
@@ -111,7 +122,8 @@ class OrbitJoin:
             self.turned_rad += turn_to_go_rad(self.lam, self._last_heading_rad, nav.heading_rad)
         self._last_heading_rad = nav.heading_rad
         turning_toward = all(0.0 <= to_go <= self.tolerance_rad
-                             for to_go in (self.to_go_rad(nav), self.to_go_rad(nav, self.orbit.current())))
+                             for to_go in (self.to_go_rad(nav), self.to_go_rad(nav, self.orbit.current()),
+                                           self.bow_to_go_rad(nav)))
         return turning_toward or abs(self.turned_rad) >= FULL_ORBIT_RAD
 
     def step(self, nav: NavState, dt_s: float) -> ControlTarget:

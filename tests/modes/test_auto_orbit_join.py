@@ -51,15 +51,17 @@ class OrbitRig:
         assert self.vehicle.arm() is None
 
     def sample(self, north_m: float, east_m: float, heading_rad: float, speed_mps: float,
-               r_radps: float) -> NavState:
+               r_radps: float, course_rad: float | None = None) -> NavState:
+        """One navigation sample; the velocity along ``course_rad`` (the heading when None)."""
         ctx = self.ctx
         ctx.clock.advance_to(ctx.clock.now_s() + DT_S)  # type: ignore[attr-defined]
         now = ctx.clock.now_s()
         self.vehicle.control.use_current(CurrentEstimate.from_components(now, 0.05, 0.0, 0.001, 0.001, 0.9))
         lat_deg, lon_deg = FRAME.to_lat_lon(north_m, east_m)
+        course = heading_rad if course_rad is None else course_rad
         nav = NavState(t_s=now, lat_deg=lat_deg, lon_deg=lon_deg, alt_m=0.0, heading_rad=heading_rad,
-                       roll_rad=0.0, pitch_rad=0.0, vel_north_mps=speed_mps * math.cos(heading_rad),
-                       vel_east_mps=speed_mps * math.sin(heading_rad), u_mps=speed_mps, v_mps=0.0,
+                       roll_rad=0.0, pitch_rad=0.0, vel_north_mps=speed_mps * math.cos(course),
+                       vel_east_mps=speed_mps * math.sin(course), u_mps=speed_mps, v_mps=0.0,
                        r_radps=r_radps)
         ctx.bus.topic(NAV_TOPIC).publish(nav)
         request = self.vehicle.update_mode(nav)
@@ -79,19 +81,20 @@ class OrbitRig:
         assert isinstance(task, OrbitTask)
         self.lam = task.orbit.lam
 
-    def circle(self) -> NavState:
-        """One sample on the circle round home, the orbit's way (course tangent to it)."""
+    def circle(self, slip_deg: float = 0.0) -> NavState:
+        """One sample on the circle round home, the orbit's way (course tangent to it), the bow
+        ``slip_deg`` ahead of the course the orbit's way (the hull's slip in the turn)."""
         self.bearing_rad += self.lam * ORBIT_RATE_RADPS * DT_S
-        heading = self.bearing_rad + self.lam * 0.5 * math.pi
+        course = self.bearing_rad + self.lam * 0.5 * math.pi
         r_m, rate = ORBIT_RADIUS_M, ORBIT_RATE_RADPS
-        return self.sample(r_m * math.cos(self.bearing_rad), r_m * math.sin(self.bearing_rad), heading,
-                           r_m * rate, self.lam * rate)
+        return self.sample(r_m * math.cos(self.bearing_rad), r_m * math.sin(self.bearing_rad),
+                           course + self.lam * math.radians(slip_deg), r_m * rate, self.lam * rate, course)
 
-    def place_for(self, off_deg: float) -> None:
+    def place_for(self, off_deg: float, slip_deg: float = 0.0) -> None:
         """Put the boat on the circle where its course is ``off_deg`` short of due north (the
         first leg), measured the orbit's way."""
         self.bearing_rad = -self.lam * (math.radians(off_deg) + 0.5 * math.pi)
-        self.circle()
+        self.circle(slip_deg)
         self.bearing_rad -= self.lam * ORBIT_RATE_RADPS * DT_S
 
     @property
@@ -161,6 +164,31 @@ def test_auto_on_the_orbit_already_pointing_along_the_leg_starts_at_once() -> No
     assert rig.vehicle.set_mode(ModeNumber.AUTO) is None
     assert rig.auto.phase is Phase.GOTO
     assert not any("orbiting until" in t for t in rig.texts)
+
+
+def test_auto_on_the_orbit_with_the_bow_past_the_leg_keeps_circling_though_its_course_is_short() -> None:
+    """On the orbit the bow leads the course by the hull's slip (25 deg at 1.8 m/s through the water
+    in the simulator): with the course 5 deg short of the leg the bow is 20 deg past it, and the leg
+    would have to reverse the orbit's turn (the boat swung 4.4 m off its first leg).  AUTO keeps
+    circling, and leaves once course and bow both point short of the leg, within one orbit."""
+    slip_deg = 25.0
+    rig = OrbitRig(join_deg=70.0)
+    rig.hold_home_on_the_orbit()
+    for _ in range(20):
+        rig.circle(slip_deg)
+    rig.place_for(5.0, slip_deg)
+    assert rig.vehicle.set_mode(ModeNumber.AUTO) is None
+    assert rig.auto.phase is Phase.JOIN
+    waited_s = 0.0
+    nav = rig.circle(slip_deg)
+    while rig.auto.phase is Phase.JOIN:
+        assert waited_s < 20.0, "AUTO never left the orbit"
+        nav = rig.circle(slip_deg)
+        waited_s += DT_S
+    bow_short_deg = rig.lam * math.degrees(wrap_pi(_leg_bearing_rad(nav) - nav.heading_rad))
+    assert 0.0 <= bow_short_deg <= 70.0
+    orbit_s = 2.0 * math.pi / ORBIT_RATE_RADPS
+    assert 0.5 * orbit_s <= waited_s <= orbit_s
 
 
 def test_auto_on_the_orbit_with_the_first_waypoint_beside_it_starts_at_once() -> None:
