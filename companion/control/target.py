@@ -57,7 +57,8 @@ class ControlTarget:
     active-model law takes the fast part of the current's yaw coupling out of its over-ground model
     there (``coupling_tau_s``, :mod:`companion.control.active_model`)."""
     u_turn: bool = False
-    """The target turns the boat onto a leg it points more than 135 deg away from, slowly
+    """The target turns the boat onto a leg it pointed more than 135 deg away from, at the U-turn's
+    slow speed until the bow is within 45 deg of the leg
     (:meth:`companion.modes.navigation.GotoTask.step`): the heading loop may ask for
     ``USV_UTURN_RATE`` and the active model gives the turn all the thrust it asks for, so the jet
     turns on its smallest circle (:mod:`companion.control.active_model`)."""

@@ -42,7 +42,8 @@ SIDESTEP_MAX_S = 15.0
 SIDESTEP_MAX_SOG_MPS = 1.0
 """Only a boat this slow over ground is keeping station: one under way turns as it is.  In waves
 of Hs 0.3 m a boat holding station bow into 1.2 m/s reads 0.5-0.8 m/s over ground (0.5 m/s let
-a hold in the grid's flood start its U-turn where it was, 4 m beside the first leg)."""
+a hold in the grid's flood start its U-turn where it was, and the boat went 3.9-4.0 m off the
+square)."""
 
 
 def away_from_turn(heading_rad: float, turn_sign: float) -> tuple[float, float]:
