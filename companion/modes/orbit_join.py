@@ -104,10 +104,6 @@ class OrbitJoin:
         the current ``current_ne_mps``) to the bearing of the leg's end."""
         return turn_to_go_rad(self.lam, course_rad(nav, current_ne_mps), self._bearing_rad(nav))
 
-    def bow_to_go_rad(self, nav: NavState) -> float:
-        """The turn (rad, the orbit's way) from the heading to the bearing of the leg's end."""
-        return turn_to_go_rad(self.lam, nav.heading_rad, self._bearing_rad(nav))
-
     def _bearing_rad(self, nav: NavState) -> float:
         here = self.frame.to_ne(nav.lat_deg, nav.lon_deg)
         return distance_bearing(self.end_ne[0] - here[0], self.end_ne[1] - here[1])[1]
@@ -121,9 +117,10 @@ class OrbitJoin:
         if self._last_heading_rad is not None:
             self.turned_rad += turn_to_go_rad(self.lam, self._last_heading_rad, nav.heading_rad)
         self._last_heading_rad = nav.heading_rad
-        turning_toward = all(0.0 <= to_go <= self.tolerance_rad
-                             for to_go in (self.to_go_rad(nav), self.to_go_rad(nav, self.orbit.current()),
-                                           self.bow_to_go_rad(nav)))
+        bearing_rad = self._bearing_rad(nav)
+        directions_rad = (course_rad(nav), course_rad(nav, self.orbit.current()), nav.heading_rad)
+        turning_toward = all(0.0 <= turn_to_go_rad(self.lam, d, bearing_rad) <= self.tolerance_rad
+                             for d in directions_rad)
         return turning_toward or abs(self.turned_rad) >= FULL_ORBIT_RAD
 
     def step(self, nav: NavState, dt_s: float) -> ControlTarget:
