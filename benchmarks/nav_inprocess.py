@@ -177,7 +177,7 @@ async def fly(cell: Cell, params: dict[str, float] | None = None) -> SequenceFig
         dists = [math.dist(p, entry) for p in loiter]
         return SequenceFigures(
             goto_s=goto_s, arrival_max_m=_max_from(arrival, GOTO_NE), loiter_max_m=round(max(dists), 2),
-            loiter_rms_m=round(math.sqrt(statistics.fmean(d * d for d in dists)), 2), rtl_s=rtl_s,
+            loiter_rms_m=round(rms(np.asarray(dists)), 2), rtl_s=rtl_s,
             rtl_arrival_max_m=_max_from(rtl_hold, (0.0, 0.0)), square_side_max_m=round(float(side.max()), 2),
             square_first_15s_max_m=round(float(first.max()), 2),
             square_mid_leg_rms_m=round(rms(mid), 3) if mid.size else math.inf,
