@@ -59,11 +59,18 @@ class IdleDrift:
 
 class IdleWater:
     """The idling boat's speed through the water, low-passed over ``tau_s`` while the jet idles
-    (wind from astern adds to the creep), starting from ``creep_mps`` (``USV_HOLD_CREEP``)."""
+    (wind from astern adds to the creep).  It starts from the larger of ``creep_mps``
+    (``USV_HOLD_CREEP``) and the speed at the first idling sample: a keeper that starts under
+    power (LOITER entered while GUIDED's keeper turned) idles at the speed the wind gives it, 1.5
+    m/s bow into 1.2 m/s with 6 m/s of wind from astern, and low-passed up from 0.7 m/s the ferry
+    glide came on 4 s late, after :func:`~companion.modes.creep.creeping_up` had given the keeper
+    up for an orbit that wandered 6 m (``docs/tuning.md``)."""
 
     def __init__(self, creep_mps: float, tau_s: float = IDLE_WATER_TAU_S) -> None:
         self.speed_mps = creep_mps
         self.tau_s = tau_s
+        self.idled = False
+        """Whether the jet has idled since the keeper started."""
 
     def update(self, idling: bool, vel_ne_mps: tuple[float, float], current_ne_mps: tuple[float, float],
                dt_s: float) -> IdleDrift | None:
@@ -71,7 +78,11 @@ class IdleWater:
         if not idling:
             return None
         water_mps = water_speed_mps(*vel_ne_mps, current_ne_mps)
-        self.speed_mps += (water_mps - self.speed_mps) * min(1.0, dt_s / self.tau_s)
+        if self.idled:
+            self.speed_mps += (water_mps - self.speed_mps) * min(1.0, dt_s / self.tau_s)
+        else:
+            self.idled = True
+            self.speed_mps = max(self.speed_mps, water_mps)
         return IdleDrift(self.speed_mps, vel_ne_mps)
 
 

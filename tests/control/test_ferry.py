@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from companion.guidance.ferry import FERRY_MARGIN_MPS, FERRY_MAX_RAD, IdleDrift, ferry_heading
+from companion.guidance.ferry import FERRY_MARGIN_MPS, FERRY_MAX_RAD, IdleDrift, IdleWater, ferry_heading
 
 UPSTREAM = math.radians(270.0)
 """A current toward east: upstream is west."""
@@ -51,3 +51,21 @@ def test_the_side_follows_the_keeper_across_the_current_and_else_stays_the_bows(
         assert math.copysign(1.0, _off_deg(out)) == math.copysign(1.0, bow_deg)
     crossing_south = IdleDrift(1.2, (-0.4, 0.0))  # 1 m north of the line, coming south at 0.4 m/s
     assert _off_deg(ferry_heading(UPSTREAM, (-KP * 1.0, -1.0), 0.0, crossing_south, KP)) > 0.0
+
+
+def test_a_keeper_started_under_power_takes_the_idle_speed_from_its_first_idling_sample() -> None:
+    """A keeper that starts while the jet pushes (LOITER entered during GUIDED's powered turn)
+    knows the wind-driven idle speed at the first idling sample, not seconds later: the ferry
+    glide then sets the bow off at once, before the boat creeps up its current.  Later samples
+    are low-passed, and a first sample slower than the creep does not lower it."""
+    current = (0.0, 1.2)  # toward east
+    water = IdleWater(0.7)
+    assert water.update(False, (0.0, 0.5), current, 0.01) is None  # pushing: no ferry input
+    assert water.speed_mps == 0.7
+    first = water.update(True, (0.0, -0.3), current, 0.01)  # 1.5 m/s west through the water
+    assert first is not None and first.idle_water_mps == pytest.approx(1.5)
+    later = water.update(True, (0.0, 0.2), current, 0.01)  # 1.0 m/s through the water
+    assert later is not None and 1.0 < later.idle_water_mps < 1.5
+    assert later.idle_water_mps == pytest.approx(1.5 - 0.5 * 0.01 / 2.0)
+    slow = IdleWater(0.7)
+    assert slow.update(True, (0.0, 0.8), current, 0.01).idle_water_mps == 0.7  # type: ignore[union-attr]
