@@ -67,5 +67,5 @@ def test_a_keeper_started_under_power_takes_the_idle_speed_from_its_first_idling
     later = water.update(True, (0.0, 0.2), current, 0.01)  # 1.0 m/s through the water
     assert later is not None and 1.0 < later.idle_water_mps < 1.5
     assert later.idle_water_mps == pytest.approx(1.5 - 0.5 * 0.01 / 2.0)
-    slow = IdleWater(0.7)
-    assert slow.update(True, (0.0, 0.8), current, 0.01).idle_water_mps == 0.7  # type: ignore[union-attr]
+    slow = IdleWater(0.7).update(True, (0.0, 0.8), current, 0.01)  # 0.4 m/s through the water
+    assert slow is not None and slow.idle_water_mps == 0.7
