@@ -59,12 +59,10 @@ class IdleDrift:
 
 class IdleWater:
     """The idling boat's speed through the water, low-passed over ``tau_s`` while the jet idles
-    (wind from astern adds to the creep).  It starts from the larger of ``creep_mps``
-    (``USV_HOLD_CREEP``) and the speed at the first idling sample: a keeper that starts under
-    power (LOITER entered while GUIDED's keeper turned) idles at the speed the wind gives it, 1.5
-    m/s bow into 1.2 m/s with 6 m/s of wind from astern, and low-passed up from 0.7 m/s the ferry
-    glide came on 4 s late, after :func:`~companion.modes.creep.creeping_up` had given the keeper
-    up for an orbit that wandered 6 m (``docs/tuning.md``)."""
+    (wind from astern adds to the creep).  The first idling sample sets it, never below
+    ``creep_mps`` (``USV_HOLD_CREEP``): a keeper started under power then ferries at once, before
+    :func:`~companion.modes.creep.creeping_up` gives it up (``docs/tuning.md``, "The ferry
+    glide's idle speed starts from the first idling sample")."""
 
     def __init__(self, creep_mps: float, tau_s: float = IDLE_WATER_TAU_S) -> None:
         self.speed_mps = creep_mps
