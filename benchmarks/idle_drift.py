@@ -23,10 +23,12 @@ import json
 import logging
 import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 
+from companion.config import ConfigError
 from companion.messages import ActuatorCommand, NavState
+from sim_bridge.disturbances import parse_current, parse_waves, parse_wind
 from sim_bridge.hull import BoatParams
 from sim_bridge.sitl import SitlHarness
 
@@ -50,40 +52,24 @@ class DriftRow:
     """``None`` with the engine off (nothing holds the heading)."""
 
 
-def _pair(text: str) -> tuple[float, float]:
-    """``SPEED,DIRECTION`` as ``usv sitl`` takes it."""
-    speed, _, direction = text.partition(",")
-    return float(speed), float(direction or 0.0)
-
-
-def _checked_pair(text: str) -> str:
-    """An argparse type: ``text`` if it is ``SPEED,DIRECTION`` with finite numbers, speed >= 0."""
-    try:
-        speed, direction = _pair(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"wants SPEED,DIRECTION_DEG, got {text!r}") from None
-    if not (math.isfinite(speed) and math.isfinite(direction) and speed >= 0.0):
-        raise argparse.ArgumentTypeError(f"wants a finite SPEED >= 0 and DIRECTION_DEG, got {text!r}")
-    return text
-
-
-def _wave_height(text: str) -> str:
-    """An argparse type: ``text`` if it is a finite wave height >= 0 (m)."""
-    try:
-        hs = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"wants a wave height in metres, got {text!r}") from None
-    if not (math.isfinite(hs) and hs >= 0.0):
-        raise argparse.ArgumentTypeError(f"wants a finite wave height >= 0, got {text!r}")
-    return text
+def _flag(parse: Callable[[str], object]) -> Callable[[str], str]:
+    """An argparse type that accepts what ``usv sitl``'s flag of the same name accepts
+    (``parse``: :mod:`sim_bridge.disturbances`'s parser, which names the accepted form)."""
+    def check(text: str) -> str:
+        try:
+            parse(text)
+        except ConfigError as exc:
+            raise argparse.ArgumentTypeError(f"wants what usv sitl takes: {exc}") from None
+        return text
+    return check
 
 
 async def drift_row(current: str, wind: str, waves: str, seed: int, off_deg: float,
                     engine_on: bool = True) -> DriftRow:
     """One heading's idle drift (module docstring); ``current`` and ``wind`` as ``usv sitl`` takes
     them (speed, toward / from degrees)."""
-    _, toward_deg = _pair(current)
-    heading = math.radians(toward_deg + 180.0 + off_deg)
+    toward_rad = parse_current(current)[1]
+    heading = toward_rad + math.radians(180.0 + off_deg)
     async with SitlHarness(seed=seed, current=current, wind=wind, waves=waves,
                            psi0_deg=math.degrees(heading)) as h:
         def hold_heading(nav: NavState) -> ActuatorCommand:
@@ -101,9 +87,8 @@ async def drift_row(current: str, wind: str, waves: str, seed: int, off_deg: flo
             errors.append(abs(math.degrees(math.remainder(heading - h.plant.state.psi_rad, 2.0 * math.pi))))
         s = h.plant.state
         vn, ve = (s.north_m - n0) / (s.t_s - t0), (s.east_m - e0) / (s.t_s - t0)
-    c = math.radians(toward_deg)
-    down = vn * math.cos(c) + ve * math.sin(c)
-    across = -vn * math.sin(c) + ve * math.cos(c)
+    down = vn * math.cos(toward_rad) + ve * math.sin(toward_rad)
+    across = -vn * math.sin(toward_rad) + ve * math.cos(toward_rad)
     return DriftRow(off_deg, engine_on, round(down, 2), round(across, 2),
                     round(sum(errors) / len(errors), 1) if engine_on else None)
 
@@ -118,9 +103,10 @@ async def drift_map(current: str, wind: str, waves: str, seed: int,
 
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m benchmarks.idle_drift", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--current", type=_checked_pair, default="0.8,90", help="SPEED,TOWARD_DEG (as usv sitl)")
-    ap.add_argument("--wind", type=_checked_pair, default="6,90", help="SPEED,FROM_DEG (as usv sitl)")
-    ap.add_argument("--waves", type=_wave_height, default="0.3", help="significant wave height (m)")
+    ap.add_argument("--current", type=_flag(parse_current), default="0.8,90",
+                    help="SPEED,TOWARD_DEG (as usv sitl)")
+    ap.add_argument("--wind", type=_flag(parse_wind), default="6,90", help="SPEED,FROM_DEG (as usv sitl)")
+    ap.add_argument("--waves", type=_flag(parse_waves), default="0.3", help="significant wave height (m)")
     ap.add_argument("--seed", type=int, default=5)
     args = ap.parse_args(argv)
     logging.disable(logging.CRITICAL)
