@@ -52,7 +52,19 @@ class DriftRow:
     """``None`` with the engine off (nothing holds the heading)."""
 
 
-def _flag(parse: Callable[[str], object]) -> Callable[[str], str]:
+def add_condition_args(ap: argparse.ArgumentParser, current: str, wind: str, waves: str) -> None:
+    """``--current``, ``--wind``, ``--waves`` (checked as ``usv sitl`` checks them) and ``--seed``,
+    with these defaults."""
+    ap.add_argument("--current", type=condition_flag(parse_current), default=current,
+                    help="SPEED,TOWARD_DEG (as usv sitl)")
+    ap.add_argument("--wind", type=condition_flag(parse_wind), default=wind,
+                    help="SPEED,FROM_DEG (as usv sitl)")
+    ap.add_argument("--waves", type=condition_flag(parse_waves), default=waves,
+                    help="significant wave height (m)")
+    ap.add_argument("--seed", type=int, default=5)
+
+
+def condition_flag(parse: Callable[[str], object]) -> Callable[[str], str]:
     """An argparse type that accepts what ``usv sitl``'s flag of the same name accepts
     (``parse``: :mod:`sim_bridge.disturbances`'s parser, which names the accepted form)."""
     def check(text: str) -> str:
@@ -103,11 +115,7 @@ async def drift_map(current: str, wind: str, waves: str, seed: int,
 
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m benchmarks.idle_drift", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--current", type=_flag(parse_current), default="0.8,90",
-                    help="SPEED,TOWARD_DEG (as usv sitl)")
-    ap.add_argument("--wind", type=_flag(parse_wind), default="6,90", help="SPEED,FROM_DEG (as usv sitl)")
-    ap.add_argument("--waves", type=_flag(parse_waves), default="0.3", help="significant wave height (m)")
-    ap.add_argument("--seed", type=int, default=5)
+    add_condition_args(ap, current="0.8,90", wind="6,90", waves="0.3")
     args = ap.parse_args(argv)
     logging.disable(logging.CRITICAL)
     rows = asyncio.run(drift_map(args.current, args.wind, args.waves, args.seed))
