@@ -36,7 +36,7 @@ SETTLE_S = 30.0
 MEASURE_S = 10.0
 SAMPLE_S = 0.2
 THROTTLES = (0.0, 0.2, 0.4, 0.6, 0.8, 1.0)
-ENTRY_LIMIT_S = 30.0
+ENTRY_LIMIT_S = 60.0
 """A full turn takes 6-36 s; an entry is measured for at most this long."""
 
 
@@ -82,14 +82,16 @@ class EntryRow:
 
 
 async def entry_row(throttle_before: float, current: str = "0,0", wind: str = "0,0", waves: str = "0",
-                    seed: int = 5) -> EntryRow:
-    """A full-power turn started from a straight run at ``throttle_before`` (module docstring)."""
+                    seed: int = 5, turn_throttle: float = 1.0) -> EntryRow:
+    """A turn at the nozzle's stop and ``turn_throttle`` (full power by default, the tightest)
+    started from a straight run at ``throttle_before`` (module docstring)."""
     turning = False
 
     async with SitlHarness(seed=seed, current=current, wind=wind, waves=waves) as h:
         def command(nav: NavState) -> ActuatorCommand:
             if turning:
-                return ActuatorCommand(nav.t_s, nozzle_rad=-NOZZLE_MAX_RAD, throttle=1.0, ignition_on=True)
+                return ActuatorCommand(nav.t_s, nozzle_rad=-NOZZLE_MAX_RAD, throttle=turn_throttle,
+                                       ignition_on=True)
             return ActuatorCommand(nav.t_s, nozzle_rad=0.0, throttle=throttle_before, ignition_on=True)
 
         h.drive(command)

@@ -37,3 +37,10 @@ def test_bad_conditions_get_a_usage_error(argv: list[str], capsys: pytest.Captur
         main(argv)
     assert exc.value.code == 2
     assert "wants" in capsys.readouterr().err
+
+
+async def test_a_turn_started_at_the_idle_creep_runs_out_least_at_full_power() -> None:
+    """The jet steers with its thrust: a boat that turns at once from the idle creep keeps closest
+    to where it started at full throttle, not by easing off."""
+    full, eased = await entry_row(0.0), await entry_row(0.0, turn_throttle=0.3)
+    assert full.max_from_entry_m < eased.max_from_entry_m
