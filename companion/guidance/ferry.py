@@ -84,15 +84,25 @@ class IdleWater:
         return IdleDrift(self.speed_mps, vel_ne_mps)
 
 
+def holds_at_the_point(current_mps: float, drift: IdleDrift) -> bool:
+    """Whether the ferry glide's largest angle can stand the idling boat on its point: bow
+    :data:`FERRY_MAX_RAD` off upstream, the idling boat makes at most the current (plus the
+    margin) up it, ``U cos(FERRY_MAX_RAD) <= |V_c| + margin``."""
+    return drift.idle_water_mps * math.cos(FERRY_MAX_RAD) <= current_mps + FERRY_MARGIN_MPS
+
+
 def ferry_heading(upstream_rad: float, w_ne_mps: tuple[float, float], bow_off_rad: float,
-                  drift: IdleDrift, kp_per_s: float) -> float | None:
+                  drift: IdleDrift, kp_per_s: float, current_mps: float | None = None) -> float | None:
     """The ferry-glide heading (rad) for the desired water velocity ``w`` (north, east m/s) of a
     keeper whose position gain is ``kp_per_s`` and whose bow is ``bow_off_rad`` off upstream, or
     ``None`` where the keeper's own heading serves (``w`` at least the idle speed less the margin,
-    or pointing downstream of across)."""
+    or pointing downstream of across); given the current's speed ``current_mps``, also ``None``
+    where no ferry angle can stand the boat on its point (:func:`holds_at_the_point`)."""
     up_n, up_e = math.cos(upstream_rad), math.sin(upstream_rad)
     w_up = w_ne_mps[0] * up_n + w_ne_mps[1] * up_e
     if math.hypot(*w_ne_mps) + FERRY_MARGIN_MPS >= drift.idle_water_mps or w_up <= 0.0:
+        return None
+    if current_mps is not None and not holds_at_the_point(current_mps, drift):
         return None
     off = min(math.acos((w_up + FERRY_MARGIN_MPS) / drift.idle_water_mps), FERRY_MAX_RAD)
     lead_n = w_ne_mps[0] - kp_per_s * FERRY_LEAD_S * drift.vel_ne_mps[0]

@@ -98,6 +98,9 @@ class CurrentStationGains:
     min_speed_mps: float = 0.15
     """Below this desired water speed the heading freezes (slack on station)."""
     max_off_upstream_rad: float = math.radians(70.0)
+    ferry_only_to_hold: bool = False
+    """Ferry-glide only where the ferry can stand the boat on its point
+    (:func:`~companion.guidance.ferry.holds_at_the_point`; the hold on a sampling circle)."""
 
 
 DOWNSTREAM_SIDE_RAD = math.radians(30.0)
@@ -147,7 +150,8 @@ class CurrentStationKeeper:
                     off = math.copysign(abs(off), wrap_pi(self.heading_rad - upstream))
                 heading = upstream + max(-g.max_off_upstream_rad, min(g.max_off_upstream_rad, off))
                 ferry = None if idle is None or clamped else ferry_heading(
-                    upstream, (wn, we), self.heading_rad - upstream, idle, g.kp_per_s)
+                    upstream, (wn, we), self.heading_rad - upstream, idle, g.kp_per_s,
+                    math.hypot(*current_ne_mps) if g.ferry_only_to_hold else None)
                 heading = heading if ferry is None else ferry
             self.heading_rad = wrap_2pi(heading)
         surge = vn * math.cos(self.heading_rad) + ve * math.sin(self.heading_rad)

@@ -260,7 +260,8 @@ class LoiterItem(NavItem):
         if abs(p3) > 0:
             self.run.task = CircleTask(params, self.point, abs(p3), clockwise=p3 > 0, drift=self.run.drift,
                                        water_current=estimator_current(self.run.host),
-                                       trials=self.run.host.station_trials)
+                                       trials=self.run.host.station_trials,
+                                       idling=self.run.host.control.mapper.idling)
         else:
             self.run.task = StationTask(params, self.point, nav.heading_rad)
         self.run.phase = Phase.LOITER

@@ -74,19 +74,21 @@ class CircleTask:
                  clockwise: bool | None = True, approach_speed_mps: float = 3.0,
                  drift: CurrentObserver | None = None,
                  water_current: Callable[[], tuple[float, float] | None] | None = None,
-                 trials: StationTrials | None = None) -> None:
+                 trials: StationTrials | None = None, idling: Callable[[], bool] | None = None) -> None:
         """``clockwise``: the direction; ``None``: the item leaves it open and the boat circles the
         way its bow goes round the centre when it starts circling (a sampling circle).
         ``water_current``: the estimator's confident water current (north, east m/s) or
         ``None``, used to choose between circling and holding on the circle while ``drift`` has
         not yet seen the boat steer in two directions (the first item after a straight leg).
         ``trials``: where holding bow into the current failed (:meth:`StemHold.when_needed`); a
-        hold given up after the boat reached it (``StemHold.failed_on_hold``) is recorded there."""
+        hold given up after the boat reached it (``StemHold.failed_on_hold``) is recorded there.
+        ``idling``: whether the jet idles now (the hold's ferry glide, :class:`StemHold`)."""
         self.frame = LocalFrame(*point)
         self.params = params
         self.drift = drift
         self.water_current = water_current
         self.trials = trials
+        self.idling = idling
         self.point = point
         self.radius_m = max(radius_m, params.get("USV_TURN_RAD"))
         self.tracker = CircleTracker((0.0, 0.0), self.radius_m, clockwise is None or clockwise,
@@ -126,7 +128,7 @@ class CircleTask:
             current, strength_mps = self._current()
             self.stem = StemHold.when_needed(self.params, current, self.radius_m, pos, nav.heading_rad,
                                              strength_mps, (nav.vel_north_mps, nav.vel_east_mps),
-                                             self.trials, nav.t_s)
+                                             self.trials, nav.t_s, self.idling)
             self.circling = self.stem is None and out.distance_m < self.radius_m + DECIDE_OUTSIDE_M
             if self.circling:
                 self._choose_direction(pos, nav.heading_rad)
@@ -151,7 +153,7 @@ class CircleTask:
             if retry:  # not yet near the circle: a second approach costs no tracking error
                 self._hold_retried = True
                 self.stem = StemHold(self.params, self.radius_m, self.stem.current_ne_mps, pos,
-                                     nav.heading_rad, strength_mps=self.stem.strength_mps)
+                                     nav.heading_rad, strength_mps=self.stem.strength_mps, idling=self.idling)
                 return self.stem.step(pos, nav, dt_s)
             self.stem, self.circling = None, True
             self._choose_direction(pos, nav.heading_rad)
@@ -172,7 +174,7 @@ class CircleTask:
         if turned_rad <= REPLAN_TURN_RAD:
             return
         stem = StemHold.when_needed(self.params, current, self.radius_m, pos_ne, nav.heading_rad,
-                                    strength_mps, (nav.vel_north_mps, nav.vel_east_mps))
+                                    strength_mps, (nav.vel_north_mps, nav.vel_east_mps), idling=self.idling)
         if stem is not None and stem.below_creep == self.stem.below_creep and self._same_side(stem):
             log.info("circle item: the hold planned again, its current turned %.0f deg",
                      math.degrees(turned_rad))

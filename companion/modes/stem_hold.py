@@ -6,11 +6,13 @@ keeper (:class:`~companion.guidance.holding.CurrentStationKeeper`) onto the hold
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import replace
 
 from companion.angles import current_along_mps
 from companion.control.target import ControlTarget
 from companion.guidance.bow_turn import KeeperTurn, downstream_speed_mps
+from companion.guidance.ferry import IdleWater
 from companion.guidance.geo import along_across_m, wrap_pi
 from companion.guidance.hold_params import current_station_gains
 from companion.guidance.holding import CurrentStationKeeper
@@ -121,11 +123,14 @@ class StemHold:
 
     def __init__(self, params: ParamStore, radius_m: float, current_ne_mps: tuple[float, float],
                  pos_ne: tuple[float, float], heading_rad: float,
-                 vel_ne_mps: tuple[float, float] = (0.0, 0.0), strength_mps: float | None = None) -> None:
+                 vel_ne_mps: tuple[float, float] = (0.0, 0.0), strength_mps: float | None = None,
+                 idling: Callable[[], bool] | None = None) -> None:
         """``pos_ne``, ``heading_rad``, ``vel_ne_mps``: where the boat is (north, east m from the
         circle's centre), its bow, and its velocity over ground (the side of the hold,
         :data:`STEM_SIDE_AHEAD_S`).  ``strength_mps``: the strength the hold was chosen on (default:
-        the current's speed); below ``USV_HOLD_CREEP`` the hold is the one below the idle creep."""
+        the current's speed); below ``USV_HOLD_CREEP`` the hold is the one below the idle creep.
+        ``idling``: whether the jet idles now; above the idle creep the keeper then ferry-glides as
+        LOITER's does (:mod:`companion.guidance.ferry`)."""
         self.strength_mps = math.hypot(*current_ne_mps) if strength_mps is None else strength_mps
         self.below_creep = self.strength_mps < params.get_or("USV_HOLD_CREEP", 0.0)
         """The boat cannot stand on the hold point (:mod:`companion.guidance.stem`): wider abeam
@@ -150,7 +155,7 @@ class StemHold:
         self._leg = 0
         self._set_leg(pos_ne)
         self.current_ne_mps = current_ne_mps
-        gains = current_station_gains(params)
+        gains = replace(current_station_gains(params), ferry_only_to_hold=True)
         if self.below_creep:
             gains = replace(gains, ki_per_s2=CREEP_KEEPER_KI_PER_S2)
         self.keeper = CurrentStationKeeper(self.hold_ne, heading_rad, gains)
@@ -175,6 +180,9 @@ class StemHold:
         ran up): the drift (current less the wind's push) is too weak to hold in, which the vehicle
         remembers."""
         self._run_up = LeakyEvidence()
+        self.idling = idling
+        self.idle_water = IdleWater(params.get_or("USV_HOLD_CREEP", 0.0))
+        """The idling boat's speed through the water: the keeper's ferry glide above the creep."""
 
     @property
     def reached(self) -> bool:
@@ -186,7 +194,8 @@ class StemHold:
                     pos_ne: tuple[float, float], heading_rad: float,
                     strength_mps: float | None = None,
                     vel_ne_mps: tuple[float, float] = (0.0, 0.0),
-                    trials: StationTrials | None = None, t_s: float = 0.0) -> StemHold | None:
+                    trials: StationTrials | None = None, t_s: float = 0.0,
+                    idling: Callable[[], bool] | None = None) -> StemHold | None:
         """A hold on ``current_ne_mps`` (north, east m/s; ``None``: unknown) when ``strength_mps``
         (default: its speed) is at least ``USV_CIRC_HOLD_C``, else ``None`` (circle); nor below the
         idle creep in a current where holding bow into it failed before (``trials``, at ``t_s``)."""
@@ -199,7 +208,7 @@ class StemHold:
         if (trials is not None and strength < params.get_or("USV_HOLD_CREEP", 0.0)
                 and trials.ruled_out(current_ne_mps, t_s)):
             return None
-        return cls(params, radius_m, current_ne_mps, pos_ne, heading_rad, vel_ne_mps, strength)
+        return cls(params, radius_m, current_ne_mps, pos_ne, heading_rad, vel_ne_mps, strength, idling)
 
     def _drops_back(self, pos_ne: tuple[float, float], heading_rad: float) -> bool:
         """More than :data:`STEM_DROP_BACK_M` upstream of the hold point, more upstream than across
@@ -242,7 +251,9 @@ class StemHold:
         if self.below_creep and reached and not self.lost:
             running_up = self._run_up.add(down_mps < -CREEP_RUN_UP_MPS, dt_s) > CREEP_RUN_UP_S
             self.lost = self.failed_on_hold = running_up
-        out = self.keeper.update(pos_ne, self.current_ne_mps, dt_s)
+        idle = None if self.below_creep or self.idling is None else self.idle_water.update(
+            self.idling(), (nav.vel_north_mps, nav.vel_east_mps), self.current_ne_mps, dt_s)
+        out = self.keeper.update(pos_ne, self.current_ne_mps, dt_s, idle)
         downstream_m = along_across_m(pos_ne, self.hold_ne, self.current_ne_mps)[0]
         heading, speed = self.turn.command(
             out.heading_rad, out.surge_speed_mps, nav.heading_rad, nav.r_radps, downstream_m,

@@ -8,6 +8,11 @@ import math
 import pytest
 
 from companion.guidance.ferry import FERRY_MARGIN_MPS, FERRY_MAX_RAD, IdleDrift, IdleWater, ferry_heading
+from companion.guidance.geo import LocalFrame
+from companion.messages import NavState
+from companion.modes.stem_hold import StemHold
+from companion.param_table import all_param_defs
+from companion.params import ParamStore
 
 UPSTREAM = math.radians(270.0)
 """A current toward east: upstream is west."""
@@ -69,3 +74,39 @@ def test_a_keeper_started_under_power_takes_the_idle_speed_from_its_first_idling
     assert later.idle_water_mps == pytest.approx(1.5 - 0.5 * 0.01 / 2.0)
     slow = IdleWater(0.7).update(True, (0.0, 0.8), current, 0.01)  # 0.4 m/s through the water
     assert slow is not None and slow.idle_water_mps == 0.7
+
+
+
+def _stem_hold_heading_off_deg(current_mps: float, up_mps: float, idling: bool | None) -> float:
+    """The heading a sampling circle's hold above the idle creep asks, off upstream, for a boat
+    1 m up the current (toward east) from its hold point, bow upstream, going up at ``up_mps``
+    over ground (``idling``: what the jet says; ``None``: the hold is not told)."""
+    params = ParamStore(all_param_defs())
+    current = (0.0, current_mps)
+    hold = StemHold(params, 2.0, current, (0.0, -6.0), UPSTREAM,
+                    idling=None if idling is None else (lambda: idling))
+    assert not hold.below_creep
+    hold.holding = True  # on the keeper (the legs to the abeam point flown)
+    frame = LocalFrame(41.77, 123.43)
+    here = (hold.hold_ne[0], hold.hold_ne[1] - 1.0)
+    lat, lon = frame.to_lat_lon(*here)
+    going_up = NavState(t_s=0.0, lat_deg=lat, lon_deg=lon, alt_m=0.0, heading_rad=UPSTREAM, roll_rad=0.0,
+                        pitch_rad=0.0, vel_north_mps=0.0, vel_east_mps=-up_mps, u_mps=up_mps, v_mps=0.0,
+                        r_radps=0.0)
+    target = hold.step(here, going_up, 0.01)
+    assert target.is_heading
+    return _off_deg(target.course_rad)
+
+
+def test_a_sampling_circles_hold_ferry_glides_where_the_ferry_can_stand_it_on_its_point() -> None:
+    """The hold on a sampling circle in 1.2 m/s, its idling boat making 1.3 m/s through the water
+    (wind from astern) and a metre up the current from its point: the bow is set off upstream by
+    the ferry angle, as LOITER's keeper does, so the boat stops creeping up; not told the jet
+    idles, or with the jet pushing, the bow stays straight upstream.  In 0.8 m/s with the idling
+    boat making 1.25 m/s through the water no angle up to the largest stands it on its point, and
+    the bow stays straight upstream too: ferrying there only swept the boat across the current
+    (``docs/tuning.md``)."""
+    assert abs(_stem_hold_heading_off_deg(1.2, 0.1, True)) == pytest.approx(math.degrees(FERRY_MAX_RAD))
+    assert _stem_hold_heading_off_deg(1.2, 0.1, False) == pytest.approx(0.0, abs=1.0)
+    assert _stem_hold_heading_off_deg(1.2, 0.1, None) == pytest.approx(0.0, abs=1.0)
+    assert _stem_hold_heading_off_deg(0.8, 0.45, True) == pytest.approx(0.0, abs=1.0)

@@ -75,7 +75,8 @@ class SampleHereItem(NavItem):
         radius = self.item.param2 if self.item.param2 > 0 else default_radius_m
         self.run.task = CircleTask(params, self.point, radius, clockwise=None, drift=self.run.drift,
                                    trials=self.run.host.station_trials,
-                                   water_current=estimator_current(self.run.host))
+                                   water_current=estimator_current(self.run.host),
+                                   idling=self.run.host.control.mapper.idling)
         self.run.phase = Phase.ACTION
         return False
 
