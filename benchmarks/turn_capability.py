@@ -3,7 +3,7 @@ simulated boat alone (no companion), in one current and weather (calm by default
 
 A water jet steers only while it pushes, and has no reverse: the smallest circle a hold can fly,
 and how far a boat that is still moving when a hold starts runs out before it is round, follow
-from this table.  ``docs/tuning.md`` ("The hold orbit in wind: at the hull's limit") uses it.
+from this table.  ``docs/tuning.md`` ("What the hull can turn") uses it.
 
 For each throttle: the boat starts from rest with the nozzle at its stop (a turn to starboard),
 settles for :data:`SETTLE_S`, then over :data:`MEASURE_S` its mean speed through the water, its
