@@ -3,9 +3,12 @@ behind ``docs/tuning.md``'s section on holds in wind against the current."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import pytest
 
-from benchmarks.idle_drift import drift_row, main
+from benchmarks import idle_drift, turn_capability
+from benchmarks.idle_drift import drift_row
 from benchmarks.nav import idle_creep_mps
 
 
@@ -32,8 +35,14 @@ async def test_with_the_wind_against_a_weak_current_the_bow_into_the_wind_drifts
     assert abs(into_wind.down_current_mps) < 0.3 and abs(into_wind.across_mps) < 0.1
 
 
-@pytest.mark.parametrize("argv", [["--current", "abc"], ["--wind=-3,90"], ["--waves", "nan"]])
-def test_bad_conditions_get_a_usage_error(argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
+@pytest.mark.parametrize("main", [idle_drift.main, turn_capability.main],
+                         ids=["idle_drift", "turn_capability"])
+@pytest.mark.parametrize("argv", [["--current", "abc"], ["--current", "1,abc"], ["--wind=-3,90"],
+                                  ["--waves", "nan"], ["--waves", "inf"]])
+def test_bad_conditions_get_a_usage_error(main: Callable[[list[str]], int], argv: list[str],
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    """Both plant-only tools (``benchmarks.idle_drift``, ``benchmarks.turn_capability``) check their
+    conditions as ``usv sitl`` does."""
     with pytest.raises(SystemExit) as exc:
         main(argv)
     assert exc.value.code == 2
