@@ -1,6 +1,8 @@
 """Circling a point (:class:`CircleTask`, GPS point tracking: sampling, LOITER_TURNS, LOITER and
 GUIDED with a radius), or, in a current the boat cannot circle in, holding on the circle bow into
-it (:class:`~companion.modes.stem_hold.StemHold`)."""
+it (:class:`~companion.modes.stem_hold.StemHold`).  Where that hold cannot work either (wind
+against the current: it was given up in this current before) the boat circles on the hold orbit
+of LOITER (:class:`~companion.guidance.holding.DriftOrbit`)."""
 
 from __future__ import annotations
 
@@ -13,6 +15,8 @@ from companion.control.target import ControlTarget
 from companion.guidance.circle import CircleTracker
 from companion.guidance.current import CurrentObserver
 from companion.guidance.geo import LocalFrame, distance_bearing, wrap_pi
+from companion.guidance.hold_params import orbit_gains
+from companion.guidance.holding import DriftOrbit
 from companion.guidance.params import circle_gains
 from companion.messages import NavState
 from companion.modes.navigation import crab_feed_forward, crabbed
@@ -107,6 +111,10 @@ class CircleTask:
         9 m off the circle; one picked 3 m out ran its route through the circle)."""
         self._hold_retried = False
         """A hold lost before the boat came near the circle is flown once more from where it is."""
+        self.orbit: DriftOrbit | None = None
+        """Set when the boat circles in a water current at least the idle creep
+        (:meth:`_start_circling`): it flies the hold orbit instead of the tracker."""
+        self._orbit_current_ne_mps = (0.0, 0.0)
         self.turns = 0.0
         self._last_bearing: float | None = None
         self.distance_m = math.inf
@@ -129,9 +137,8 @@ class CircleTask:
             self.stem = StemHold.when_needed(self.params, current, self.radius_m, pos, nav.heading_rad,
                                              strength_mps, (nav.vel_north_mps, nav.vel_east_mps),
                                              self.trials, nav.t_s, self.idling)
-            self.circling = self.stem is None and out.distance_m < self.radius_m + DECIDE_OUTSIDE_M
-            if self.circling:
-                self._choose_direction(pos, nav.heading_rad)
+            if self.stem is None and out.distance_m < self.radius_m + DECIDE_OUTSIDE_M:
+                self._start_circling(pos, nav.heading_rad)
             if self.stem is not None:
                 log.info("circle item: holding on the circle in a %.2f m/s current (%.1f m out)",
                          math.hypot(*self.stem.current_ne_mps), out.distance_m)
@@ -155,8 +162,10 @@ class CircleTask:
                 self.stem = StemHold(self.params, self.radius_m, self.stem.current_ne_mps, pos,
                                      nav.heading_rad, strength_mps=self.stem.strength_mps, idling=self.idling)
                 return self.stem.step(pos, nav, dt_s)
-            self.stem, self.circling = None, True
-            self._choose_direction(pos, nav.heading_rad)
+            self.stem = None
+            self._start_circling(pos, nav.heading_rad)
+        if self.orbit is not None:
+            return self._orbit_step(pos, nav, dt_s)
         far = out.distance_m > self.radius_m + 10.0
         speed = self.approach_speed_mps if far else self.circle_speed_mps
         target = ControlTarget(out.course_rad, speed, out.course_rate_radps)
@@ -185,9 +194,32 @@ class CircleTask:
         assert self.stem is not None
         return angle_between_rad(stem.hold_ne, self.stem.hold_ne) <= REPLAN_SIDE_RAD
 
-    def _choose_direction(self, pos_ne: tuple[float, float], heading_rad: float) -> None:
+    def _start_circling(self, pos_ne: tuple[float, float], heading_rad: float) -> None:
+        """Circle from now on, the way the bow goes round the centre when the item leaves the
+        direction open.  In a water current at least the idle creep (``USV_HOLD_CREEP``), which
+        the item circles in only when holding bow into it failed (:meth:`StemHold.when_needed`:
+        wind against the current), on LOITER's hold orbit (:class:`DriftOrbit`: speed through the
+        water, the current's crab, the yaw priority of a continuous turn) rather than the tracker's
+        course over ground: on the tuning grid (in-process, 0.8 m/s with 6 m/s of wind against it)
+        the tracker's loops reached 3.6-10.2 m off the circle.  Not in a weaker current, where the
+        tracker does better (``docs/tuning.md``)."""
+        self.circling = True
         if self.free_direction:
             self.tracker.set_clockwise(circling_clockwise(pos_ne, heading_rad))
+        current = self.water_current() if self.water_current is not None else None
+        if current is not None and math.hypot(*current) >= self.params.get_or("USV_HOLD_CREEP", math.inf):
+            self.orbit = DriftOrbit((0.0, 0.0), self.radius_m, self.tracker.lam > 0, orbit_gains(self.params))
+            self._orbit_current_ne_mps = current
+
+    def _orbit_step(self, pos_ne: tuple[float, float], nav: NavState, dt_s: float) -> ControlTarget:
+        """One step on the hold orbit, fed the estimator's water current (the last one it gave)."""
+        assert self.orbit is not None
+        current = self.water_current() if self.water_current is not None else None
+        if current is not None:
+            self._orbit_current_ne_mps = current
+        out = self.orbit.update(pos_ne, self._orbit_current_ne_mps, dt_s, nav.heading_rad)
+        return ControlTarget(out.heading_rad, out.surge_speed_mps, out.turn_rate_radps, is_heading=True,
+                             circling=True)
 
     def _current(self) -> tuple[tuple[float, float] | None, float]:
         """The current the hold would be flown on and the strength the circle-or-hold choice is

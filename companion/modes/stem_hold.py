@@ -197,16 +197,18 @@ class StemHold:
                     trials: StationTrials | None = None, t_s: float = 0.0,
                     idling: Callable[[], bool] | None = None) -> StemHold | None:
         """A hold on ``current_ne_mps`` (north, east m/s; ``None``: unknown) when ``strength_mps``
-        (default: its speed) is at least ``USV_CIRC_HOLD_C``, else ``None`` (circle); nor below the
-        idle creep in a current where holding bow into it failed before (``trials``, at ``t_s``)."""
+        (default: its speed) is at least ``USV_CIRC_HOLD_C``, else ``None`` (circle); nor in a
+        current where holding bow into it failed before (``trials``, at ``t_s``), above the idle
+        creep too: there wind against the current leaves the idling boat running up it (0.8 m/s
+        against 6 m/s of wind), and each item's hold ran it 4-10 m off the circle before it was
+        given up (``docs/tuning.md``)."""
         limit = params.get_or("USV_CIRC_HOLD_C", 0.0)
         if current_ne_mps is None or limit <= 0.0:
             return None
         strength = math.hypot(*current_ne_mps) if strength_mps is None else strength_mps
         if strength < limit:
             return None
-        if (trials is not None and strength < params.get_or("USV_HOLD_CREEP", 0.0)
-                and trials.ruled_out(current_ne_mps, t_s)):
+        if trials is not None and trials.ruled_out(current_ne_mps, t_s):
             return None
         return cls(params, radius_m, current_ne_mps, pos_ne, heading_rad, vel_ne_mps, strength, idling)
 
