@@ -455,11 +455,34 @@ def test_hold_below_the_creep_that_the_boat_runs_up_the_current_from_is_given_up
     other = CircleTask(_creep_params(0.4), point, 2.0, water_current=lambda: (0.5, 0.0), trials=trials)
     other.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
     assert other.stem is not None  # another current: held
-    trials.failed((0.0, 1.2), 0.0)  # above the creep the record does not count: the jet stems it
     strong = CircleTask(_creep_params(0.4), point, 2.0, drift=_observer_after_two_legs((0.0, 1.2)),
-                        trials=trials)
+                        water_current=lambda: (0.0, 1.2), trials=trials)
     strong.step(_nav(frame, -12.0, -3.0, 2.0, 0.0), 0.1)
-    assert strong.stem is not None and not strong.stem.below_creep
+    assert strong.stem is not None and not strong.stem.below_creep  # above the creep: stemmed
+
+
+def test_circle_item_where_a_hold_above_the_creep_failed_circles_on_the_hold_orbit() -> None:
+    """Wind against a current above the idle creep runs the idling boat up it, and holding there
+    fails (LOITER's and GUIDED's station keeping, or a circle item's hold): the next circle item in
+    that current circles at once, on LOITER's hold orbit, which turns the boat through the water
+    with the thrust a turn needs (the circle tracker's loops reached 4-10 m off the circle).  A
+    circle item in a current weaker than the creep keeps the tracker."""
+    point = (41.77, 123.43)
+    frame = LocalFrame(*point)
+    trials = StationTrials()
+    trials.failed((0.0, 0.8), 0.0)
+
+    def first_target(current: tuple[float, float]) -> tuple[CircleTask, ControlTarget]:
+        task = CircleTask(ParamStore(all_param_defs()), point, 2.0, drift=_observer_after_two_legs(current),
+                          water_current=lambda: current, trials=trials)
+        return task, task.step(_nav(frame, -5.0, -1.0, 2.0, 0.0), 0.1)
+
+    circled, target = first_target((0.0, 0.8))
+    assert circled.stem is None and circled.circling and target.circling
+    other, target = first_target((0.8, 0.0))  # another current: held
+    assert other.stem is not None and not target.circling
+    weak, target = first_target((0.0, 0.3))  # below USV_CIRC_HOLD_C: the tracker circles
+    assert weak.stem is None and weak.circling and not target.circling
 
 
 def test_hold_above_the_creep_that_the_boat_runs_up_the_current_from_is_given_up_and_remembered() -> None:
