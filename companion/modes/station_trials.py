@@ -1,5 +1,6 @@
 """Where keeping station bow into the current has failed, per vehicle (issue 14): LOITER, GUIDED
-and RTL orbit at once in that current for a while (:mod:`companion.modes.holding`)."""
+and RTL orbit at once in that current for a while (:mod:`companion.modes.holding`), and circle items
+circle instead of holding on their circle (:meth:`~companion.modes.stem_hold.StemHold.when_needed`)."""
 
 from __future__ import annotations
 
