@@ -9,6 +9,7 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Callable
+from dataclasses import replace
 
 from companion.angles import angle_between_rad
 from companion.control.target import ControlTarget
@@ -41,6 +42,12 @@ drift only across the bow, can read under the threshold after a hold (``docs/tun
 DECIDE_OUTSIDE_M = 8.0
 """A circle item chooses between circling and holding on the circle until the boat is this close
 to the circle (the hold's route starts with a point up to this far out)."""
+ORBIT_APPROACH_K = 0.75
+"""Until the boat has been on the circle, a circle item's hold orbit (:meth:`CircleTask._start_circling`)
+converges with this gain instead of ``USV_HOLD_ORB_K``: the item starts circling up to
+:data:`DECIDE_OUTSIDE_M` outside the circle, where the orbit's field at 1.5 pointed the boat almost
+at the centre; arriving at 2.4 m/s it ran through the centre, and the turn that followed looped
+8.7 m out (0.8 m/s with 6 m/s of wind against it; ``docs/tuning.md``)."""
 REPLAN_TURN_RAD = math.radians(15.0)
 """A hold the boat has not yet reached (its point or the circle; on its legs, or under the keeper
 on the way up the current) is planned again from where the boat is when the current it is flown on
@@ -115,6 +122,7 @@ class CircleTask:
         """Set when the boat circles in a water current at least the idle creep
         (:meth:`_start_circling`): it flies the hold orbit instead of the tracker."""
         self._orbit_current_ne_mps = (0.0, 0.0)
+        self._orbit_gains = orbit_gains(params)
         self.turns = 0.0
         self._last_bearing: float | None = None
         self.distance_m = math.inf
@@ -209,11 +217,17 @@ class CircleTask:
         current = self.water_current() if self.water_current is not None else None
         if current is not None and math.hypot(*current) >= self.params.get_or("USV_HOLD_CREEP", math.inf):
             self.orbit = DriftOrbit((0.0, 0.0), self.radius_m, self.tracker.lam > 0, orbit_gains(self.params))
+            self._orbit_gains = self.orbit.gains
             self._orbit_current_ne_mps = current
 
     def _orbit_step(self, pos_ne: tuple[float, float], nav: NavState, dt_s: float) -> ControlTarget:
-        """One step on the hold orbit, fed the estimator's water current (the last one it gave)."""
+        """One step on the hold orbit, fed the estimator's water current (the last one it gave); a
+        gentler convergence until the boat has been on the circle (:data:`ORBIT_APPROACH_K`)."""
         assert self.orbit is not None
+        if self.on_circle_since_s is None:
+            self.orbit.gains = replace(self._orbit_gains, k_orbit=ORBIT_APPROACH_K)
+        else:
+            self.orbit.gains = self._orbit_gains
         current = self.water_current() if self.water_current is not None else None
         if current is not None:
             self._orbit_current_ne_mps = current
