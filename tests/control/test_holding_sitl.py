@@ -346,7 +346,7 @@ async def test_a_circle_item_where_holding_failed_in_wind_against_the_current_ci
     GUIDED gives station keeping up for its orbit, and the first circle item's hold on its circle
     is given up too (the vehicle remembers the current).  The next circle item circles at once, on
     LOITER's hold orbit, and stays within 3.5 m of its circle (usv bench nav's sampling-circle
-    error: measured 2.8 m).  Before, it held on its circle again, and the hold and the circle
+    error: measured 2.4 m).  Before, it held on its circle again, and the hold and the circle
     tracker's loops that followed took the boat 5.6 m off the circle."""
     async with SitlHarness(seed=3, current="0.8,0", wind="6,0", waves="0.3", full_stack=True) as h:
         vehicle = h.services.vehicle
