@@ -122,7 +122,7 @@ class CircleTask:
         """Set when the boat circles in a water current at least the idle creep
         (:meth:`_start_circling`): it flies the hold orbit instead of the tracker."""
         self._orbit_current_ne_mps = (0.0, 0.0)
-        self._orbit_gains = orbit_gains(params)
+        self._orbit_gains = self._approach_gains = orbit_gains(params)
         self.turns = 0.0
         self._last_bearing: float | None = None
         self.distance_m = math.inf
@@ -218,16 +218,14 @@ class CircleTask:
         if current is not None and math.hypot(*current) >= self.params.get_or("USV_HOLD_CREEP", math.inf):
             self.orbit = DriftOrbit((0.0, 0.0), self.radius_m, self.tracker.lam > 0, orbit_gains(self.params))
             self._orbit_gains = self.orbit.gains
+            self._approach_gains = replace(self.orbit.gains, k_orbit=ORBIT_APPROACH_K)
             self._orbit_current_ne_mps = current
 
     def _orbit_step(self, pos_ne: tuple[float, float], nav: NavState, dt_s: float) -> ControlTarget:
         """One step on the hold orbit, fed the estimator's water current (the last one it gave); a
         gentler convergence until the boat has been on the circle (:data:`ORBIT_APPROACH_K`)."""
         assert self.orbit is not None
-        if self.on_circle_since_s is None:
-            self.orbit.gains = replace(self._orbit_gains, k_orbit=ORBIT_APPROACH_K)
-        else:
-            self.orbit.gains = self._orbit_gains
+        self.orbit.gains = self._approach_gains if self.on_circle_since_s is None else self._orbit_gains
         current = self.water_current() if self.water_current is not None else None
         if current is not None:
             self._orbit_current_ne_mps = current
