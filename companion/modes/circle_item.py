@@ -16,10 +16,10 @@ from companion.control.target import ControlTarget
 from companion.guidance.circle import CircleTracker
 from companion.guidance.current import CurrentObserver
 from companion.guidance.geo import LocalFrame, distance_bearing, wrap_pi
-from companion.guidance.hold_params import orbit_gains
-from companion.guidance.holding import DriftOrbit
+from companion.guidance.holding import OrbitGains
 from companion.guidance.params import circle_gains
 from companion.messages import NavState
+from companion.modes.holding import OrbitTask
 from companion.modes.navigation import crab_feed_forward, crabbed
 from companion.modes.station_trials import StationTrials
 from companion.modes.stem_hold import StemHold
@@ -118,11 +118,11 @@ class CircleTask:
         9 m off the circle; one picked 3 m out ran its route through the circle)."""
         self._hold_retried = False
         """A hold lost before the boat came near the circle is flown once more from where it is."""
-        self.orbit: DriftOrbit | None = None
+        self.orbit: OrbitTask | None = None
         """Set when the boat circles in a water current at least the idle creep
         (:meth:`_start_circling`): it flies the hold orbit instead of the tracker."""
-        self._orbit_current_ne_mps = (0.0, 0.0)
-        self._orbit_gains = self._approach_gains = orbit_gains(params)
+        self._orbit_gains: tuple[OrbitGains, OrbitGains] | None = None
+        """The hold orbit's gains until the boat has been on the circle, and after."""
         self.turns = 0.0
         self._last_bearing: float | None = None
         self.distance_m = math.inf
@@ -173,7 +173,7 @@ class CircleTask:
             self.stem = None
             self._start_circling(pos, nav.heading_rad)
         if self.orbit is not None:
-            return self._orbit_step(pos, nav, dt_s)
+            return self._orbit_step(nav, dt_s)
         far = out.distance_m > self.radius_m + 10.0
         speed = self.approach_speed_mps if far else self.circle_speed_mps
         target = ControlTarget(out.course_rad, speed, out.course_rate_radps)
@@ -206,7 +206,7 @@ class CircleTask:
         """Circle from now on, the way the bow goes round the centre when the item leaves the
         direction open.  In a water current at least the idle creep (``USV_HOLD_CREEP``), which
         the item circles in only when holding bow into it failed (:meth:`StemHold.when_needed`:
-        wind against the current), on LOITER's hold orbit (:class:`DriftOrbit`: speed through the
+        wind against the current), on LOITER's hold orbit (:class:`OrbitTask`: speed through the
         water, the current's crab, the yaw priority of a continuous turn) rather than the tracker's
         course over ground: on the tuning grid (in-process, 0.8 m/s with 6 m/s of wind against it)
         the tracker's loops reached 3.6-10.2 m off the circle.  Not in a weaker current, where the
@@ -215,23 +215,19 @@ class CircleTask:
         if self.free_direction:
             self.tracker.set_clockwise(circling_clockwise(pos_ne, heading_rad))
         current = self.water_current() if self.water_current is not None else None
-        if current is not None and math.hypot(*current) >= self.params.get_or("USV_HOLD_CREEP", math.inf):
-            self.orbit = DriftOrbit((0.0, 0.0), self.radius_m, self.tracker.lam > 0, orbit_gains(self.params))
-            self._orbit_gains = self.orbit.gains
-            self._approach_gains = replace(self.orbit.gains, k_orbit=ORBIT_APPROACH_K)
-            self._orbit_current_ne_mps = current
+        if (self.water_current is not None and current is not None
+                and math.hypot(*current) >= self.params.get_or("USV_HOLD_CREEP", math.inf)):
+            self.orbit = OrbitTask(self.params, self.point, self.water_current, current, self.tracker.lam > 0)
+            gains = self.orbit.orbit.gains
+            self._orbit_gains = (replace(gains, k_orbit=ORBIT_APPROACH_K), gains)
 
-    def _orbit_step(self, pos_ne: tuple[float, float], nav: NavState, dt_s: float) -> ControlTarget:
-        """One step on the hold orbit, fed the estimator's water current (the last one it gave); a
-        gentler convergence until the boat has been on the circle (:data:`ORBIT_APPROACH_K`)."""
-        assert self.orbit is not None
-        self.orbit.gains = self._approach_gains if self.on_circle_since_s is None else self._orbit_gains
-        current = self.water_current() if self.water_current is not None else None
-        if current is not None:
-            self._orbit_current_ne_mps = current
-        out = self.orbit.update(pos_ne, self._orbit_current_ne_mps, dt_s, nav.heading_rad)
-        return ControlTarget(out.heading_rad, out.surge_speed_mps, out.turn_rate_radps, is_heading=True,
-                             circling=True)
+    def _orbit_step(self, nav: NavState, dt_s: float) -> ControlTarget:
+        """One step on the hold orbit; a gentler convergence until the boat has been on the circle
+        (:data:`ORBIT_APPROACH_K`)."""
+        assert self.orbit is not None and self._orbit_gains is not None
+        approach, on_circle = self._orbit_gains
+        self.orbit.orbit.gains = approach if self.on_circle_since_s is None else on_circle
+        return self.orbit.step(nav, dt_s)
 
     def _current(self) -> tuple[tuple[float, float] | None, float]:
         """The current the hold would be flown on and the strength the circle-or-hold choice is

@@ -59,6 +59,15 @@ async def _trial_then_orbit(h: SitlHarness, seconds: float) -> tuple[list[float]
     return dists, given_up
 
 
+def _upload_circle_items(h: SitlHarness, points: list[tuple[float, float]]) -> None:
+    """A mission of LOITER_TIME items (40 s on a 2 m circle) at ``points`` (north, east m from home)."""
+    frame = LocalFrame(*HOME)
+    plan = [MissionItem.home(*HOME)] + [
+        MissionItem.at(k, mi.CMD_NAV_LOITER_TIME, *frame.to_lat_lon(*p), param1=40.0, param3=2.0)
+        for k, p in enumerate(points, start=1)]
+    h.services.vehicle.missions.replace(MissionType.MISSION, plan)
+
+
 async def _loiter_from_here(h: SitlHarness, samples: int, every_step: type | None = None) -> list[float]:
     """LOITER where the boat is; its distance from there every 0.5 s, ``samples`` times, with the
     hold task checked to be ``every_step`` at each sample when given."""
@@ -215,12 +224,8 @@ async def test_a_circle_item_downstream_of_a_held_one_in_a_flood_is_not_swept_pa
     ran through the circle, and it was swept 9.9 m off the circle while turning into the current."""
     async with SitlHarness(seed=1, current="1.2,180", wind="6,0", waves="0.3", full_stack=True) as h:
         vehicle = h.services.vehicle
-        frame = LocalFrame(*HOME)
         points = [(25.0, 25.0), (0.0, 25.0)]
-        plan = [MissionItem.home(*HOME)] + [
-            MissionItem.at(k, mi.CMD_NAV_LOITER_TIME, *frame.to_lat_lon(*p), param1=40.0, param3=2.0)
-            for k, p in enumerate(points, start=1)]
-        vehicle.missions.replace(MissionType.MISSION, plan)
+        _upload_circle_items(h, points)
         await h.run_for(20.0)  # the estimator finds the current while the boat drifts
         assert vehicle.arm() is None
         assert vehicle.set_mode(ModeNumber.AUTO) is None
@@ -351,12 +356,8 @@ async def test_a_circle_item_where_holding_failed_in_wind_against_the_current_ci
     async with SitlHarness(seed=3, current="0.8,0", wind="6,0", waves="0.3", full_stack=True) as h:
         vehicle = h.services.vehicle
         await _guided_to_the_point_and_hold(h)
-        frame = LocalFrame(*HOME)
         points = [(55.0, 30.0), (55.0, 55.0)]
-        plan = [MissionItem.home(*HOME)] + [
-            MissionItem.at(k, mi.CMD_NAV_LOITER_TIME, *frame.to_lat_lon(*p), param1=40.0, param3=2.0)
-            for k, p in enumerate(points, start=1)]
-        vehicle.missions.replace(MissionType.MISSION, plan)
+        _upload_circle_items(h, points)
         assert vehicle.set_mode(ModeNumber.AUTO) is None
         held = {1: False, 2: False}
         on_circle, off_circle_m = False, 0.0
