@@ -31,7 +31,6 @@ async def test_a_turn_started_at_speed_runs_out_farther_than_one_started_at_the_
     assert faster.max_from_entry_m > creeping.max_from_entry_m + 1.0
 
 
-
 async def test_a_turn_started_at_the_idle_creep_runs_out_least_at_full_power() -> None:
     """The jet steers with its thrust: a boat that turns at once from the idle creep keeps closest
     to where it started at full throttle, not by easing off."""

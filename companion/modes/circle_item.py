@@ -1,8 +1,8 @@
 """Circling a point (:class:`CircleTask`, GPS point tracking: sampling, LOITER_TURNS, LOITER and
 GUIDED with a radius), or, in a current the boat cannot circle in, holding on the circle bow into
 it (:class:`~companion.modes.stem_hold.StemHold`).  Where that hold cannot work either (wind
-against the current: it was given up in this current before) the boat circles on the hold orbit
-of LOITER (:class:`~companion.guidance.holding.DriftOrbit`)."""
+against the current: it was given up in this current before) the boat circles on LOITER's hold
+orbit (:class:`~companion.modes.holding.OrbitTask`)."""
 
 from __future__ import annotations
 
@@ -214,9 +214,10 @@ class CircleTask:
         self.circling = True
         if self.free_direction:
             self.tracker.set_clockwise(circling_clockwise(pos_ne, heading_rad))
-        current = self.water_current() if self.water_current is not None else None
-        if (self.water_current is not None and current is not None
-                and math.hypot(*current) >= self.params.get_or("USV_HOLD_CREEP", math.inf)):
+        if self.water_current is None:
+            return
+        current = self.water_current()
+        if current is not None and math.hypot(*current) >= self.params.get_or("USV_HOLD_CREEP", math.inf):
             self.orbit = OrbitTask(self.params, self.point, self.water_current, current, self.tracker.lam > 0)
             gains = self.orbit.orbit.gains
             self._orbit_gains = (replace(gains, k_orbit=ORBIT_APPROACH_K), gains)

@@ -76,7 +76,6 @@ def test_a_keeper_started_under_power_takes_the_idle_speed_from_its_first_idling
     assert slow is not None and slow.idle_water_mps == 0.7
 
 
-
 def _stem_hold_heading_off_deg(current_mps: float, up_mps: float, idling: bool | None) -> float:
     """The heading a sampling circle's hold above the idle creep asks, off upstream, for a boat
     1 m up the current (toward east) from its hold point, bow upstream, going up at ``up_mps``
